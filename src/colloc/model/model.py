@@ -1,0 +1,337 @@
+"""The intermediate model form every other part of colloc works on.
+
+A :class:`Model` is the implicit first-order system ``F(x', x, r, p, t) = 0`` with named
+states ``x``, inputs ``r`` (controlled, known exogenous, unknown exogenous), constant
+parameters ``p`` and measured outputs ``y = g(x, t)``. Mechanical systems stay implicit
+(``M(q) u' - f = 0``): the mass matrix is never inverted.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field, replace
+from typing import TYPE_CHECKING, Any, Protocol
+
+import sympy as sm
+
+from colloc.model.errors import raise_if_any
+from colloc.model.symbols import TIME, as_tuple, name_of, sort_by_name
+from colloc.model.validation import validate_model
+
+if TYPE_CHECKING:
+    from sympy.physics.mechanics import KanesMethod, LagrangesMethod
+
+Inputs = sm.Basic | Sequence[sm.Basic] | sm.MatrixBase | None
+
+
+class Controller(Protocol):
+    """What :meth:`Model.close_loop` needs from a controller."""
+
+    def control_law(self, model: Model) -> Mapping[sm.Basic, sm.Expr]:
+        """Map each controlled input the controller drives to its expression."""
+        ...  # pragma: no cover
+
+    @property
+    def parameters(self) -> tuple[sm.Symbol, ...]:
+        """The controller's constants (gains, set points) that become model parameters."""
+        ...  # pragma: no cover
+
+
+@dataclass(frozen=True)
+class Model:
+    """Implicit dynamic model ``F(x', x, r, p, t) = 0`` with outputs ``y = g(x, t)``.
+
+    Build one with :meth:`from_kane`, :meth:`from_lagrange` or :meth:`from_equations`
+    rather than directly; those validate the definition and report every problem at once.
+
+    Attributes
+    ----------
+    residual : sympy.Matrix
+        ``F``, one row per equation.
+    states : tuple
+        The states ``x(t)`` (functions of time).
+    controlled_inputs, known_inputs, unknown_inputs : tuple
+        Inputs ``r(t)`` driven by a controller, measured, or to be estimated.
+    parameters : tuple
+        Constant symbols ``p`` of the model, sorted by name.
+    outputs : dict
+        Output symbol -> expression ``g(x, t)``.
+    controller_parameters : tuple
+        The subset of ``parameters`` introduced by :meth:`close_loop`.
+    t : sympy.Symbol
+        Time.
+    """
+
+    residual: sm.Matrix
+    states: tuple[sm.Basic, ...]
+    controlled_inputs: tuple[sm.Basic, ...] = ()
+    known_inputs: tuple[sm.Basic, ...] = ()
+    unknown_inputs: tuple[sm.Basic, ...] = ()
+    parameters: tuple[sm.Symbol, ...] = ()
+    outputs: dict[sm.Basic, sm.Expr] = field(default_factory=dict)
+    controller_parameters: tuple[sm.Symbol, ...] = ()
+    t: sm.Symbol = TIME
+
+    # ------------------------------------------------------------------ derived views
+    @property
+    def state_derivatives(self) -> tuple[sm.Basic, ...]:
+        """``x'(t)`` in the order of :attr:`states`."""
+        return tuple(x.diff(self.t) for x in self.states)
+
+    @property
+    def inputs(self) -> tuple[sm.Basic, ...]:
+        """All inputs: controlled, then known, then unknown."""
+        return self.controlled_inputs + self.known_inputs + self.unknown_inputs
+
+    @property
+    def num_states(self) -> int:
+        """Number of states ``n``."""
+        return len(self.states)
+
+    @property
+    def num_equations(self) -> int:
+        """Number of residual rows."""
+        return self.residual.shape[0]
+
+    def __repr__(self) -> str:
+        names = ", ".join(name_of(x) for x in self.states)
+        return (
+            f"Model(states=[{names}], equations={self.num_equations}, "
+            f"inputs={[name_of(r) for r in self.inputs]}, "
+            f"parameters={[name_of(p) for p in self.parameters]})"
+        )
+
+    # ------------------------------------------------------------------ constructors
+    @classmethod
+    def from_equations(
+        cls,
+        residual: sm.MatrixBase | Sequence[sm.Expr],
+        states: Inputs,
+        *,
+        controlled_inputs: Inputs = None,
+        known_inputs: Inputs = None,
+        unknown_inputs: Inputs = None,
+        outputs: Mapping[sm.Basic, sm.Expr] | Sequence[sm.Basic] | None = None,
+        parameters: Inputs = None,
+        t: sm.Symbol = TIME,
+    ) -> Model:
+        """Build a model from a plain SymPy residual ``F(x', x, r, p, t) = 0``.
+
+        Parameters
+        ----------
+        residual : sympy.Matrix or sequence of sympy.Expr
+            The equations, each equal to zero, written in ``x(t)``, ``x(t).diff(t)``, inputs,
+            constants and ``t``.
+        states : sequence of functions of time
+            The states ``x(t)``, one per equation.
+        controlled_inputs, known_inputs, unknown_inputs : sequence of functions of time
+            Every other function of time in the residual must be listed in exactly one.
+        outputs : mapping or sequence, optional
+            Measured outputs ``y = g(x, t)``: a mapping output symbol -> expression, or a
+            sequence of states that are measured directly. Default: every state.
+        parameters : sequence of sympy.Symbol, optional
+            The constants. If given, any other constant in the residual is reported as
+            unknown; if omitted, every free symbol other than ``t`` is a parameter.
+        t : sympy.Symbol
+            The time symbol.
+
+        Returns
+        -------
+        Model
+
+        Raises
+        ------
+        ModelError
+            Listing every problem found in the definition.
+        """
+        res = sm.Matrix(residual) if not isinstance(residual, sm.MatrixBase) else residual
+        res = sm.Matrix(res).reshape(len(res), 1) if res.shape[1] != 1 else sm.Matrix(res)
+        xs = as_tuple(states)
+        if outputs is None:
+            out: dict[sm.Basic, sm.Expr] = {x: x for x in xs}
+        elif isinstance(outputs, Mapping):
+            out = dict(outputs)
+        else:
+            out = {y: y for y in as_tuple(outputs)}
+        ctrl, known, unknown = (as_tuple(v) for v in (controlled_inputs, known_inputs, unknown_inputs))
+        given_params = None if parameters is None else as_tuple(parameters)
+        problems, found_params = validate_model(res, xs, ctrl, known, unknown, out, given_params, t)
+        raise_if_any(problems)
+        params = sort_by_name(given_params if given_params is not None else found_params)
+        return cls(res, xs, ctrl, known, unknown, params, out, (), t)  # type: ignore[arg-type]
+
+    @classmethod
+    def from_kane(
+        cls,
+        kane: KanesMethod,
+        *,
+        controlled_inputs: Inputs = None,
+        known_inputs: Inputs = None,
+        unknown_inputs: Inputs = None,
+        outputs: Mapping[sm.Basic, sm.Expr] | Sequence[sm.Basic] | None = None,
+        parameters: Inputs = None,
+    ) -> Model:
+        """Build a model from a :class:`sympy.physics.mechanics.KanesMethod`.
+
+        The states are ``[q, u]``; the residual stacks the kinematic differential equations
+        ``M_k(q) q' - f_k(q, u) = 0`` and the dynamic equations ``M(q) u' - f(q, u, r) = 0``
+        (with nonholonomic constraints, SymPy's square augmented form). Outputs default to
+        the generalized coordinates.
+
+        Parameters
+        ----------
+        kane : KanesMethod
+            With ``kanes_equations`` already called.
+        controlled_inputs, known_inputs, unknown_inputs, outputs, parameters
+            As in :meth:`from_equations`.
+
+        Returns
+        -------
+        Model
+        """
+        if getattr(kane, "_fr", None) is None:
+            raise TypeError(
+                "kane: expected a KanesMethod whose kanes_equations() has been called; "
+                "found one without equations"
+            )
+        q, u = tuple(kane.q), tuple(kane.u)
+        t = TIME
+        qd = sm.Matrix([qi.diff(t) for qi in q])
+        ud = sm.Matrix([ui.diff(t) for ui in u])
+        kin = kane.mass_matrix_kin * qd - kane.forcing_kin
+        dyn = kane.mass_matrix * ud - kane.forcing
+        return cls.from_equations(
+            kin.col_join(dyn),
+            q + u,
+            controlled_inputs=controlled_inputs,
+            known_inputs=known_inputs,
+            unknown_inputs=unknown_inputs,
+            outputs=q if outputs is None else outputs,
+            parameters=parameters,
+        )
+
+    @classmethod
+    def from_lagrange(
+        cls,
+        lagrange: LagrangesMethod,
+        *,
+        controlled_inputs: Inputs = None,
+        known_inputs: Inputs = None,
+        unknown_inputs: Inputs = None,
+        outputs: Mapping[sm.Basic, sm.Expr] | Sequence[sm.Basic] | None = None,
+        parameters: Inputs = None,
+        speed_prefix: str = "u_",
+    ) -> Model:
+        """Build a model from a :class:`sympy.physics.mechanics.LagrangesMethod`.
+
+        New speed states ``u_q(t) = q'(t)`` make the system first order: states are
+        ``[q, u]`` and, with constraints, the Lagrange multipliers ``lam`` as algebraic
+        states, closed by the velocity-level constraint equations.
+
+        Parameters
+        ----------
+        lagrange : LagrangesMethod
+            With ``form_lagranges_equations`` already called.
+        speed_prefix : str
+            Prefix of the names of the speed states created for each coordinate.
+        controlled_inputs, known_inputs, unknown_inputs, outputs, parameters
+            As in :meth:`from_equations`.
+
+        Returns
+        -------
+        Model
+        """
+        from sympy.physics.mechanics import dynamicsymbols
+
+        if getattr(lagrange, "eom", None) is None:
+            raise TypeError(
+                "lagrange: expected a LagrangesMethod whose form_lagranges_equations() has been "
+                "called; found one without equations"
+            )
+        t = TIME
+        q = tuple(lagrange.q)
+        u = tuple(dynamicsymbols(f"{speed_prefix}{name_of(qi)}") for qi in q)
+        to_first_order: dict[sm.Basic, sm.Basic] = {}
+        for qi, ui in zip(q, u, strict=True):
+            to_first_order[qi.diff(t, 2)] = ui.diff(t)
+            to_first_order[qi.diff(t)] = ui
+        lam = tuple(lagrange.lam_vec)
+        kin = sm.Matrix([qi.diff(t) - ui for qi, ui in zip(q, u, strict=True)])
+        # eom already holds M q'' - f with the multiplier terms when constraints exist.
+        dyn = sm.Matrix(lagrange.eom).xreplace(to_first_order)
+        rows = kin.col_join(dyn)
+        if lam:
+            rows = rows.col_join(sm.Matrix(lagrange.coneqs).xreplace(to_first_order))
+        return cls.from_equations(
+            rows,
+            q + u + lam,
+            controlled_inputs=controlled_inputs,
+            known_inputs=known_inputs,
+            unknown_inputs=unknown_inputs,
+            outputs=q if outputs is None else outputs,
+            parameters=parameters,
+        )
+
+    # ------------------------------------------------------------------ operations
+    def close_loop(self, controller: Controller) -> Model:
+        """Substitute a controller's law for the controlled inputs it drives.
+
+        Parameters
+        ----------
+        controller : Controller
+            For example :class:`colloc.StateFeedback`. Its constants become model
+            parameters, which a :class:`colloc.Problem` can treat as known or unknown.
+
+        Returns
+        -------
+        Model
+            The closed-loop model; controlled inputs the controller does not drive remain.
+        """
+        law = dict(controller.control_law(self))
+        problems = [
+            f"controller drives {name_of(r)}, which is not a controlled input of the model "
+            f"(controlled inputs: {[name_of(c) for c in self.controlled_inputs]})"
+            for r in law
+            if r not in self.controlled_inputs
+        ]
+        clash = set(controller.parameters) & (set(self.parameters) | set(self.states))
+        problems += [
+            f"controller parameter {name_of(p)} is already used by the model" for p in clash
+        ]
+        raise_if_any(problems)
+        residual = self.residual.xreplace(law)
+        remaining = tuple(r for r in self.controlled_inputs if r not in law)
+        new_params = sort_by_name(set(self.parameters) | set(controller.parameters))
+        return replace(
+            self,
+            residual=residual,
+            controlled_inputs=remaining,
+            parameters=new_params,  # type: ignore[arg-type]
+            controller_parameters=self.controller_parameters + tuple(controller.parameters),
+        )
+
+    def with_outputs(self, outputs: Mapping[sm.Basic, sm.Expr] | Sequence[sm.Basic]) -> Model:
+        """Return a copy with other measured outputs (validated like the constructors)."""
+        new = Model.from_equations(
+            self.residual,
+            self.states,
+            controlled_inputs=self.controlled_inputs,
+            known_inputs=self.known_inputs,
+            unknown_inputs=self.unknown_inputs,
+            outputs=outputs,
+            parameters=self.parameters,
+            t=self.t,
+        )
+        return replace(new, controller_parameters=self.controller_parameters)
+
+    def describe(self) -> dict[str, Any]:
+        """A plain summary (names only) for logs and result records."""
+        return {
+            "states": [name_of(x) for x in self.states],
+            "controlled_inputs": [name_of(r) for r in self.controlled_inputs],
+            "known_inputs": [name_of(r) for r in self.known_inputs],
+            "unknown_inputs": [name_of(r) for r in self.unknown_inputs],
+            "parameters": [name_of(p) for p in self.parameters],
+            "outputs": [name_of(y) for y in self.outputs],
+            "num_equations": self.num_equations,
+        }
