@@ -47,14 +47,18 @@ class StateFeedback:
     ) -> None:
         self._K = None if K is None else _as_matrix(K)
         if self._K is not None and (self._K.rows == 0 or self._K.cols == 0):
-            raise ValueError(f"K: expected a non-empty 2-D gain matrix, found shape {self._K.shape}")
+            raise ValueError(
+                f"K: expected a non-empty 2-D gain matrix, found shape {self._K.shape}"
+            )
         self._x_eq = None if x_eq is None else tuple(_as_expr(e, "x_eq") for e in x_eq)
         self._states = None if states is None else as_tuple(states)
         self._inputs = None if inputs is None else as_tuple(inputs)
         self._name = name
 
     @classmethod
-    def symbolic(cls, num_inputs: int, num_states: int, name: str = "k", **kwargs: Any) -> StateFeedback:
+    def symbolic(
+        cls, num_inputs: int, num_states: int, name: str = "k", **kwargs: Any
+    ) -> StateFeedback:
         """Feedback with a ``num_inputs x num_states`` matrix of symbols ``{name}_{i}_{j}``."""
         for label, value in (("num_inputs", num_inputs), ("num_states", num_states)):
             if not isinstance(value, int | np.integer) or value < 1:
@@ -116,9 +120,7 @@ class StateFeedback:
 
 def gain_symbols(num_inputs: int, num_states: int, name: str = "k") -> sm.Matrix:
     """A matrix of gain symbols ``{name}_{i}_{j}`` (row = input, column = state)."""
-    return sm.Matrix(
-        num_inputs, num_states, lambda i, j: sm.Symbol(f"{name}_{i}_{j}")
-    )
+    return sm.Matrix(num_inputs, num_states, lambda i, j: sm.Symbol(f"{name}_{i}_{j}"))
 
 
 def _as_expr(value: Any, label: str) -> sm.Expr:

@@ -10,7 +10,7 @@ from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field, replace
-from typing import TYPE_CHECKING, Any, Protocol
+from typing import TYPE_CHECKING, Any, Protocol, TypeAlias
 
 import sympy as sm
 
@@ -21,7 +21,7 @@ from colloc.model.validation import validate_model
 if TYPE_CHECKING:
     from sympy.physics.mechanics import KanesMethod, LagrangesMethod
 
-Inputs = sm.Basic | Sequence[sm.Basic] | sm.MatrixBase | None
+Inputs: TypeAlias = sm.Basic | Sequence[sm.Basic] | sm.MatrixBase | None
 
 
 class Controller(Protocol):
@@ -153,7 +153,9 @@ class Model:
             out = dict(outputs)
         else:
             out = {y: y for y in as_tuple(outputs)}
-        ctrl, known, unknown = (as_tuple(v) for v in (controlled_inputs, known_inputs, unknown_inputs))
+        ctrl, known, unknown = (
+            as_tuple(v) for v in (controlled_inputs, known_inputs, unknown_inputs)
+        )
         given_params = None if parameters is None else as_tuple(parameters)
         problems, found_params = validate_model(res, xs, ctrl, known, unknown, out, given_params, t)
         raise_if_any(problems)

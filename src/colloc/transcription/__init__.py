@@ -1,0 +1,18 @@
+"""Collocation schemes: each turns the model residual into the defects of one interval."""
+
+from colloc.transcription.backward_euler import BackwardEuler
+from colloc.transcription.base import IntervalView, NodeView, Scheme, TimeGrid
+from colloc.transcription.hermite_simpson import HermiteSimpson
+from colloc.transcription.midpoint import Midpoint
+from colloc.transcription.trapezoidal import Trapezoidal
+
+__all__ = [
+    "BackwardEuler",
+    "HermiteSimpson",
+    "IntervalView",
+    "Midpoint",
+    "NodeView",
+    "Scheme",
+    "TimeGrid",
+    "Trapezoidal",
+]

@@ -1,0 +1,183 @@
+"""Objective terms: tracking of measured outputs, integral and terminal costs.
+
+Every term is written as a sum over nodes ``sum_k c_k * phi(x_k, r_k, p, t_k, d_k)`` with
+per-node data ``d_k`` (measurements, weights) and per-node factors ``c_k`` (quadrature
+weights). Data are inputs of the built functions, so new measurements need no rebuild.
+"""
+
+from __future__ import annotations
+
+from abc import ABC, abstractmethod
+from collections.abc import Mapping
+from dataclasses import dataclass
+
+import numpy as np
+import sympy as sm
+
+from colloc.model.model import Model
+from colloc.model.symbols import name_of
+
+
+@dataclass(frozen=True)
+class NodeTerm:
+    """One objective term in node form.
+
+    Attributes
+    ----------
+    expr : sympy.Expr
+        ``phi`` in the model's states, inputs, parameters, ``t`` and ``data_symbols``.
+    data_symbols : tuple of sympy.Symbol
+        Placeholders for per-node data.
+    data : ndarray, shape (N, len(data_symbols))
+        The values of the placeholders at each node.
+    factors : ndarray, shape (N,)
+        ``c_k``.
+    """
+
+    expr: sm.Expr
+    data_symbols: tuple[sm.Symbol, ...]
+    data: np.ndarray
+    factors: np.ndarray
+
+
+class ObjectiveTerm(ABC):
+    """A term of the objective; subclasses turn themselves into a :class:`NodeTerm`."""
+
+    @abstractmethod
+    def node_term(self, model: Model, times: np.ndarray, index: int) -> NodeTerm:
+        """The term as a weighted sum over the nodes of ``times``.
+
+        ``index`` makes the data placeholder names of this term unique in the objective.
+        """
+
+    @abstractmethod
+    def fingerprint(self) -> str:
+        """Text that identifies the term's structure (not its data), for build caches."""
+
+
+class Tracking(ObjectiveTerm):
+    """Weighted least squares between model outputs and measurements.
+
+    ``J = sum_k sum_j w_j (y_j(x_k, t_k) - y_m,jk)^2``; samples that are NaN are left out.
+
+    Parameters
+    ----------
+    measurements : mapping
+        Output symbol (a key of ``model.outputs``) -> measured values at the nodes.
+    weights : float or mapping, optional
+        One weight for all outputs, or output symbol -> weight. Default 1.
+    """
+
+    def __init__(
+        self,
+        measurements: Mapping[sm.Basic, np.ndarray],
+        weights: float | Mapping[sm.Basic, float] | None = None,
+    ) -> None:
+        if not isinstance(measurements, Mapping) or not measurements:
+            raise ValueError(
+                "measurements: expected a non-empty mapping output symbol -> array, "
+                f"found {type(measurements).__name__}"
+            )
+        self.measurements = {y: np.asarray(v, dtype=float) for y, v in measurements.items()}
+        if weights is None or isinstance(weights, int | float):
+            w = 1.0 if weights is None else float(weights)
+            self.weights = dict.fromkeys(self.measurements, w)
+        else:
+            unknown = [name_of(y) for y in weights if y not in self.measurements]
+            if unknown:
+                raise ValueError(f"weights: outputs {unknown} have no measurements")
+            self.weights = {y: float(weights.get(y, 1.0)) for y in self.measurements}
+        negative = [name_of(y) for y, w in self.weights.items() if not w >= 0]
+        if negative:
+            raise ValueError(
+                f"weights: expected non-negative numbers, found negative for {negative}"
+            )
+
+    def node_term(self, model: Model, times: np.ndarray, index: int) -> NodeTerm:
+        """See :meth:`ObjectiveTerm.node_term`."""
+        problems = []
+        for y, values in self.measurements.items():
+            if y not in model.outputs:
+                problems.append(
+                    f"{name_of(y)} is not an output of the model (outputs: "
+                    f"{[name_of(o) for o in model.outputs]})"
+                )
+            elif values.shape != times.shape:
+                problems.append(
+                    f"measurements of {name_of(y)}: expected shape {times.shape} (one per node), "
+                    f"found {values.shape}"
+                )
+            elif np.all(np.isnan(values)):
+                problems.append(f"measurements of {name_of(y)}: every sample is NaN")
+        if problems:
+            raise ValueError("Tracking: " + "; ".join(problems))
+        outputs = list(self.measurements)
+        ym = sm.symbols(f"ym{index}_0:{len(outputs)}")
+        wm = sm.symbols(f"wm{index}_0:{len(outputs)}")
+        expr = sum(
+            (w * (model.outputs[y] - m) ** 2 for y, m, w in zip(outputs, ym, wm, strict=True)),
+            sm.S.Zero,
+        )
+        measured = np.column_stack([self.measurements[y] for y in outputs])
+        missing = np.isnan(measured)
+        weight_cols = np.column_stack(
+            [np.where(missing[:, j], 0.0, self.weights[y]) for j, y in enumerate(outputs)]
+        )
+        data = np.hstack([np.where(missing, 0.0, measured), weight_cols])
+        return NodeTerm(expr, tuple(ym) + tuple(wm), data, np.ones(times.size))
+
+    def fingerprint(self) -> str:
+        """See :meth:`ObjectiveTerm.fingerprint`."""
+        return "Tracking(" + ",".join(sm.srepr(y) for y in self.measurements) + ")"
+
+
+class IntegralCost(ObjectiveTerm):
+    """``integral of L(x, r, p, t) dt`` over the grid, by the trapezoidal rule.
+
+    Parameters
+    ----------
+    integrand : sympy.Expr
+        ``L`` in the model's states, inputs, parameters and time.
+    """
+
+    def __init__(self, integrand: sm.Expr) -> None:
+        if not isinstance(integrand, sm.Basic):
+            raise TypeError(f"integrand: expected a SymPy expression, found {integrand!r}")
+        self.integrand = integrand
+
+    def node_term(self, model: Model, times: np.ndarray, index: int) -> NodeTerm:
+        """See :meth:`ObjectiveTerm.node_term`."""
+        h = np.diff(times)
+        factors = np.zeros(times.size)
+        factors[:-1] += h / 2
+        factors[1:] += h / 2
+        return NodeTerm(self.integrand, (), np.zeros((times.size, 0)), factors)
+
+    def fingerprint(self) -> str:
+        """See :meth:`ObjectiveTerm.fingerprint`."""
+        return f"IntegralCost({sm.srepr(self.integrand)})"
+
+
+class TerminalCost(ObjectiveTerm):
+    """``Phi(x(t_f), p)``, evaluated at the last node.
+
+    Parameters
+    ----------
+    expr : sympy.Expr
+        ``Phi`` in the model's states, parameters and time.
+    """
+
+    def __init__(self, expr: sm.Expr) -> None:
+        if not isinstance(expr, sm.Basic):
+            raise TypeError(f"expr: expected a SymPy expression, found {expr!r}")
+        self.expr = expr
+
+    def node_term(self, model: Model, times: np.ndarray, index: int) -> NodeTerm:
+        """See :meth:`ObjectiveTerm.node_term`."""
+        factors = np.zeros(times.size)
+        factors[-1] = 1.0
+        return NodeTerm(self.expr, (), np.zeros((times.size, 0)), factors)
+
+    def fingerprint(self) -> str:
+        """See :meth:`ObjectiveTerm.fingerprint`."""
+        return f"TerminalCost({sm.srepr(self.expr)})"

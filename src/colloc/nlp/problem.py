@@ -1,0 +1,327 @@
+"""The collocation problem: model + grid + scheme + data + unknowns + objective."""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable, Mapping, Sequence
+from typing import Any
+
+import numpy as np
+import sympy as sm
+
+from colloc.model.errors import ProblemDefinitionError, raise_if_any
+from colloc.model.model import Model
+from colloc.model.symbols import name_of
+from colloc.nlp.assembly import AssembledNLP, Placement
+from colloc.nlp.build import build_templates
+from colloc.nlp.layout import ConstraintBlock, Layout
+from colloc.nlp.objective import ObjectiveTerm
+from colloc.nlp.solution import Solution
+from colloc.nlp.spec import (
+    Bounds,
+    check_bounds,
+    check_objective,
+    check_parameters,
+    check_trajectories,
+    parse_instance_constraints,
+)
+from colloc.nlp.templates import Partition, row_names
+from colloc.solve.ipopt import IpoptResult, solve_nlp
+from colloc.transcription.base import Scheme, TimeGrid
+from colloc.transcription.midpoint import Midpoint
+
+_INF = 1e20  # IPOPT treats |bound| >= 1e19 as infinite
+
+
+class Problem:
+    """A direct-collocation NLP for a model on a time grid.
+
+    Parameters
+    ----------
+    model : Model
+        Usually closed loop (:meth:`Model.close_loop`).
+    times : array_like
+        Strictly increasing node times (``N`` of them).
+    scheme : Scheme, optional
+        A scheme object such as ``Midpoint()`` (default) or ``HermiteSimpson()``.
+    known_trajectories : mapping, optional
+        Input symbol -> values at the nodes. Every known input of the model needs one;
+        other inputs without one (controlled or unknown inputs) become free trajectories.
+    known_parameters : mapping, optional
+        Parameter symbol -> value.
+    objective : ObjectiveTerm or sequence, optional
+        ``Tracking``, ``IntegralCost``, ``TerminalCost`` terms, summed. None: feasibility.
+    unknown_parameters : sequence, optional
+        The parameters to estimate. Default, as in opty: every parameter without a known value.
+    bounds : mapping, optional
+        State, free input or unknown parameter -> (lower, upper).
+    instance_constraints : sequence of sympy.Expr, optional
+        Expressions equal to zero in ``x(t_k)`` values (e.g. ``q.func(0.0) - 1``, or
+        ``q.func(tf) - q.func(0.0)`` for periodicity) and parameters.
+    cache : bool, str or Path
+        Cache built functions on disk (default directory, or the one given); False: never.
+
+    Raises
+    ------
+    ProblemDefinitionError
+        Listing every inconsistency at once.
+    """
+
+    def __init__(
+        self,
+        model: Model,
+        times: Sequence[float] | np.ndarray,
+        scheme: Scheme | None = None,
+        known_trajectories: Mapping[sm.Basic, Any] | None = None,
+        known_parameters: Mapping[sm.Symbol, Any] | None = None,
+        objective: ObjectiveTerm | Sequence[ObjectiveTerm] | None = None,
+        unknown_parameters: Sequence[sm.Symbol] | None = None,
+        bounds: Bounds | None = None,
+        instance_constraints: Sequence[sm.Expr] | None = None,
+        cache: bool | str | Any = True,
+    ) -> None:
+        t_start = time.perf_counter()
+        if not isinstance(model, Model):
+            raise TypeError(f"model: expected a colloc.Model, found {type(model).__name__}")
+        scheme = Midpoint() if scheme is None else scheme
+        if not isinstance(scheme, Scheme):
+            raise TypeError(
+                f"scheme: expected a scheme object such as Midpoint(), found {scheme!r}"
+            )
+        self.model, self.scheme, self.grid = model, scheme, TimeGrid(np.asarray(times, float))
+        N = self.grid.num_nodes
+        problems: list[str] = []
+        self.known_trajectories = check_trajectories(model, known_trajectories or {}, N, problems)
+        self.known_parameters, unknown = check_parameters(
+            model, known_parameters or {}, unknown_parameters, problems
+        )
+        terms = check_objective(objective, problems)
+        free_inputs = tuple(r for r in model.inputs if r not in self.known_trajectories)
+        self.partition = Partition(
+            model,
+            free_inputs,
+            tuple(r for r in model.inputs if r in self.known_trajectories),
+            unknown,
+            tuple(p for p in model.parameters if p not in unknown),
+        )
+        node_funcs = list(model.states) + list(free_inputs)
+        self.bounds = check_bounds(bounds or {}, node_funcs + list(unknown), problems)
+        ic_exprs, ic_vars, ic_locs = parse_instance_constraints(
+            list(instance_constraints or []),
+            node_funcs,
+            model.parameters,
+            self.grid.times,
+            problems,
+        )
+        node_terms = []
+        for i, term in enumerate(terms):
+            try:
+                node_terms.append(term.node_term(model, self.grid.times, i))
+            except ValueError as exc:
+                problems.append(str(exc))
+        raise_if_any(problems, ProblemDefinitionError)
+
+        self.layout = self._make_layout()
+        templates, self.cache_hit = build_templates(
+            self.partition, scheme, node_terms, ic_exprs, ic_vars, cache
+        )
+        self._templates = templates
+        self._node_terms = node_terms
+        self._ic_locs = ic_locs
+        self.nlp = self._assemble(templates, node_terms, ic_locs)
+        self.build_time = time.perf_counter() - t_start
+
+    # ---------------------------------------------------------------- layout
+    def _make_layout(self) -> Layout:
+        names = [name_of(x) for x in self.model.states]
+        node = names + [name_of(r) for r in self.partition.free_inputs]
+        if self.scheme.node_derivatives:
+            node += [f"{s}'" for s in names]
+        return Layout(
+            self.grid.times,
+            node,
+            self.scheme.interval_variable_names(names),
+            [name_of(p) for p in self.partition.unknown_parameters],
+        )
+
+    def _assemble(self, templates: dict, node_terms: list, ic_locs: list) -> AssembledNLP:
+        lay, N = self.layout, self.grid.num_nodes
+        n_nv, n_iv = lay.num_node_variables, lay.num_interval_variables
+        params = lay.parameter_offset + np.arange(len(lay.parameter_names))
+        k_int, k_node = np.arange(N - 1), np.arange(N)
+        node_idx = n_nv * k_node[None, :] + np.arange(n_nv)[:, None]
+        int_idx = np.vstack(
+            [
+                node_idx[:, :-1],
+                node_idx[:, 1:],
+                lay.interval_offset + n_iv * k_int[None, :] + np.arange(n_iv)[:, None],
+                np.repeat(params[:, None], N - 1, axis=1),
+            ]
+        ).astype(np.int64)
+        node_idx_p = np.vstack([node_idx, np.repeat(params[:, None], N, axis=1)]).astype(np.int64)
+        R = (
+            np.column_stack([self.known_trajectories[r] for r in self.partition.known_inputs])
+            if (self.partition.known_inputs)
+            else np.zeros((N, 0))
+        )
+        Rm = self.grid.midpoint_values(R) if R.shape[1] else np.zeros((N - 1, 0))
+        pk = np.array([self.known_parameters[p] for p in self.partition.known_parameters], float)
+        t, h = self.grid.times, self.grid.steps
+        int_data = np.vstack(
+            [R[:-1].T, R[1:].T, Rm.T, np.repeat(pk[:, None], N - 1, 1), t[None, :-1], h[None, :]]
+        )
+        node_data = np.vstack([R.T, np.repeat(pk[:, None], N, 1), t[None, :]])
+
+        placements = []
+        fi = templates["interval"]
+        blk = lay.add_block(
+            ConstraintBlock(
+                "interval",
+                fi.num_outputs,
+                N - 1,
+                "interval",
+                row_names(self.model, self.scheme, fi.num_outputs, "interval"),
+            )
+        )
+        placements.append(Placement(fi, int_idx.T, int_data.T, blk.offset))
+        if templates.get("node") is not None:
+            fn = templates["node"]
+            blk = lay.add_block(
+                ConstraintBlock(
+                    "node",
+                    fn.num_outputs,
+                    N,
+                    "node",
+                    row_names(self.model, self.scheme, fn.num_outputs, "node"),
+                )
+            )
+            placements.append(Placement(fn, node_idx_p.T, node_data.T, blk.offset))
+        if templates.get("instance") is not None:
+            fc = templates["instance"]
+            blk = lay.add_block(ConstraintBlock("instance", fc.num_outputs, 1, "instance"))
+            idx = np.array([k * n_nv + j for k, j in ic_locs] + list(params), np.int64)[:, None]
+            placements.append(Placement(fc, idx.T, pk[None, :], blk.offset))
+        objective = None
+        if node_terms:
+            extra = [term.data.T for term in node_terms] + [
+                term.factors[None, :] for term in node_terms
+            ]
+            obj_data = np.vstack([node_data, *extra])
+            objective = Placement(templates["objective"], node_idx_p.T, obj_data.T)
+        return AssembledNLP(lay.num_variables, placements, objective)
+
+    # ---------------------------------------------------------------- bounds and guesses
+    def variable_bounds(self) -> tuple[np.ndarray, np.ndarray]:
+        """Lower and upper bounds of the free vector (``±1e20`` where unbounded)."""
+        lay = self.layout
+        lo, hi = np.full(lay.num_variables, -_INF), np.full(lay.num_variables, _INF)
+        for s, (a, b) in self.bounds.items():
+            name = name_of(s)
+            if name in lay.node_names:
+                idx = lay.node_indices(name)
+                lo[idx], hi[idx] = a, b
+                mid = f"{name}_mid"
+                if mid in lay.interval_names:
+                    j = lay.interval_names.index(mid)
+                    idx = (
+                        lay.interval_offset
+                        + j
+                        + lay.num_interval_variables * np.arange(lay.num_nodes - 1)
+                    )
+                    lo[idx], hi[idx] = a, b
+            else:
+                i = lay.variable_index(name)
+                lo[i], hi[i] = a, b
+        return np.maximum(lo, -_INF), np.minimum(hi, _INF)
+
+    def initial_guess(
+        self,
+        trajectories: Mapping[sm.Basic, np.ndarray | float] | None = None,
+        parameters: Mapping[sm.Symbol, float] | None = None,
+        default: float = 0.0,
+    ) -> np.ndarray:
+        """Build a free vector from trajectories and parameter values by symbol.
+
+        Derivative variables (trapezoidal, Hermite-Simpson) are filled by finite differences
+        of the state guesses and midpoint states by interpolation, so a good state guess
+        gives a nearly feasible start.
+        """
+        lay = self.layout
+        nodes = {name_of(s): v for s, v in (trajectories or {}).items()}
+        params = {name_of(p): v for p, v in (parameters or {}).items()}
+        z = lay.fill(nodes, params, default=default)
+        X = lay.node_matrix(z)
+        n = self.model.num_states
+        states = X[:, :n]
+        if self.scheme.node_derivatives:
+            nf = len(self.partition.free_inputs)
+            X[:, n + nf : 2 * n + nf] = np.gradient(states, self.grid.times, axis=0)
+        if lay.num_interval_variables == 2 * n:
+            M = lay.interval_matrix(z)
+            M[:, :n] = self.grid.midpoint_values(states)
+            M[:, n:] = np.diff(states, axis=0) / self.grid.steps[:, None]
+        return z
+
+    # ---------------------------------------------------------------- solve
+    def solve(
+        self,
+        initial_guess: np.ndarray,
+        hessian: str = "exact",
+        progress: Callable[[dict[str, float]], None] | None = None,
+        log_path: str | None = None,
+        **ipopt_options: Any,
+    ) -> Solution:
+        """Solve with IPOPT (MUMPS).
+
+        Parameters
+        ----------
+        initial_guess : ndarray
+            Free vector (see :meth:`initial_guess`).
+        hessian : {"exact", "limited-memory"}
+            Exact Hessian by AD (default) or IPOPT's L-BFGS approximation.
+        progress : callable, optional
+            Called after each iteration with ``iteration``, ``objective``,
+            ``infeasibility`` (primal), ``dual_infeasibility``.
+        log_path : str, optional
+            Keep IPOPT's log at this path (it is also in ``stats["ipopt_log"]``).
+        **ipopt_options
+            Passed to IPOPT (e.g. ``tol=1e-8``, ``max_iter=500``).
+
+        Returns
+        -------
+        Solution
+        """
+        z0 = np.asarray(initial_guess, dtype=float)
+        if z0.shape != (self.layout.num_variables,):
+            raise ValueError(
+                f"initial_guess: expected shape ({self.layout.num_variables},), found {z0.shape}"
+            )
+        if not np.all(np.isfinite(z0)):
+            bad = int(np.flatnonzero(~np.isfinite(z0))[0])
+            raise ValueError(
+                f"initial_guess: expected finite values, found {z0[bad]} at index {bad} "
+                f"({self.layout.describe_variable(bad)})"
+            )
+        lo, hi = self.variable_bounds()
+        result: IpoptResult = solve_nlp(
+            self.nlp,
+            z0,
+            lo,
+            hi,
+            hessian=hessian,
+            progress=progress,
+            log_path=log_path,
+            options=ipopt_options,
+        )
+        return Solution.from_result(self, result)
+
+    def defects(self, z: np.ndarray) -> np.ndarray:
+        """Constraint values at ``z`` (row order as in :attr:`layout`)."""
+        return self.nlp.constraints(np.asarray(z, dtype=float))
+
+    def __repr__(self) -> str:
+        lay = self.layout
+        return (
+            f"Problem({self.scheme!r}, N={lay.num_nodes}, variables={lay.num_variables}, "
+            f"constraints={lay.num_constraints}, unknown parameters={lay.parameter_names})"
+        )

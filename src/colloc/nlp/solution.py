@@ -1,0 +1,119 @@
+"""The result of a solve: trajectories, parameters and solver statistics, as data."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+import pandas as pd
+import sympy as sm
+
+from colloc.model.symbols import name_of
+from colloc.solve.status import SolveStatus
+
+if TYPE_CHECKING:
+    from colloc.nlp.problem import Problem
+    from colloc.solve.ipopt import IpoptResult
+
+
+@dataclass
+class Solution:
+    """Trajectories, parameters and statistics of a solved :class:`colloc.Problem`.
+
+    Attributes
+    ----------
+    times : ndarray
+        Node times.
+    trajectories : dict
+        Symbol -> values at the nodes, for states, free inputs and known inputs.
+    parameters : dict
+        Parameter symbol -> value: the identified unknowns and the known values.
+    unknown_parameters : tuple
+        The symbols that were estimated.
+    status : SolveStatus
+    stats : dict
+        ``iterations``, ``objective``, ``constraint_violation``, ``status``, ``message``,
+        ``hint``, ``build_time``, ``solve_time``, ``cache_hit``, ``ipopt_log``, ...
+    z : ndarray
+        The free vector at the solution.
+    """
+
+    times: np.ndarray
+    trajectories: dict[sm.Basic, np.ndarray]
+    parameters: dict[sm.Symbol, float]
+    unknown_parameters: tuple[sm.Symbol, ...]
+    status: SolveStatus
+    stats: dict[str, Any]
+    z: np.ndarray
+    multipliers: np.ndarray = field(repr=False, default_factory=lambda: np.zeros(0))
+
+    @classmethod
+    def from_result(cls, problem: Problem, result: IpoptResult) -> Solution:
+        """Unpack an :class:`IpoptResult` with the problem's layout."""
+        lay = problem.layout
+        X = lay.node_matrix(result.x)
+        node_funcs = list(problem.model.states) + list(problem.partition.free_inputs)
+        traj: dict[sm.Basic, np.ndarray] = {s: X[:, j].copy() for j, s in enumerate(node_funcs)}
+        traj.update({r: v.copy() for r, v in problem.known_trajectories.items()})
+        params: dict[sm.Symbol, float] = dict(problem.known_parameters)
+        est = result.x[lay.parameter_offset :]
+        params.update(zip(problem.partition.unknown_parameters, map(float, est), strict=True))
+        stats = {
+            "status": result.status.name,
+            "status_code": result.status.code,
+            "success": result.status.success,
+            "message": str(result.status),
+            "hint": result.status.hint,
+            "iterations": result.iterations,
+            "objective": result.objective,
+            "constraint_violation": result.constraint_violation,
+            "build_time": problem.build_time,
+            "solve_time": result.solve_time,
+            "cache_hit": problem.cache_hit,
+            "num_variables": lay.num_variables,
+            "num_constraints": lay.num_constraints,
+            "nnz_jacobian": problem.nlp.nnz_jacobian,
+            "nnz_hessian": problem.nlp.nnz_hessian,
+            "scheme": problem.scheme.name,
+            "ipopt_options": result.options,
+            "history": result.history,
+            "ipopt_log": result.log,
+        }
+        return cls(
+            problem.grid.times.copy(),
+            traj,
+            params,
+            problem.partition.unknown_parameters,
+            result.status,
+            stats,
+            result.x.copy(),
+            result.multipliers,
+        )
+
+    @property
+    def success(self) -> bool:
+        """Whether IPOPT reported an optimum."""
+        return self.status.success
+
+    def to_pandas(self) -> pd.DataFrame:
+        """Trajectories as a DataFrame indexed by time, one column per symbol name."""
+        data = {name_of(s): v for s, v in self.trajectories.items()}
+        return pd.DataFrame(data, index=pd.Index(self.times, name="time"))
+
+    def parameters_frame(self) -> pd.DataFrame:
+        """Parameters as a DataFrame: name, value, whether estimated."""
+        return pd.DataFrame(
+            {
+                "name": [name_of(p) for p in self.parameters],
+                "value": list(self.parameters.values()),
+                "estimated": [p in self.unknown_parameters for p in self.parameters],
+            }
+        )
+
+    def __repr__(self) -> str:
+        return (
+            f"Solution(status={self.status.name}, iterations={self.stats['iterations']}, "
+            f"objective={self.stats['objective']:.6g}, "
+            f"unknown parameters={len(self.unknown_parameters)})"
+        )

@@ -1,0 +1,189 @@
+"""Validation of what a user hands to :class:`colloc.Problem`, all problems at once."""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from typing import Any
+
+import numpy as np
+import sympy as sm
+from sympy.core.function import AppliedUndef
+
+from colloc.model.model import Model
+from colloc.model.symbols import name_of
+from colloc.nlp.objective import ObjectiveTerm
+
+Bounds = Mapping[sm.Basic, tuple[float, float]]
+
+
+def check_trajectories(
+    model: Model, known: Mapping[sm.Basic, Any], num_nodes: int, problems: list[str]
+) -> dict[sm.Basic, np.ndarray]:
+    """Known input trajectories: each an input of the model, one finite value per node."""
+    out: dict[sm.Basic, np.ndarray] = {}
+    for r, values in known.items():
+        if r not in model.inputs:
+            where = "a state" if r in model.states else "not an input of the model"
+            problems.append(
+                f"known_trajectories: {name_of(r)} is {where} (inputs: "
+                f"{[name_of(i) for i in model.inputs]})"
+            )
+            continue
+        arr = np.asarray(values, dtype=float)
+        if arr.shape != (num_nodes,):
+            problems.append(
+                f"known_trajectories[{name_of(r)}]: expected shape ({num_nodes},) (one value per "
+                f"node), found {arr.shape}"
+            )
+        elif not np.all(np.isfinite(arr)):
+            problems.append(
+                f"known_trajectories[{name_of(r)}]: expected finite values, found NaN/inf"
+            )
+        else:
+            out[r] = arr
+    missing = [name_of(r) for r in model.known_inputs if r not in known]
+    if missing:
+        problems.append(
+            f"known_trajectories: the model's known inputs {missing} have no trajectory; "
+            "give one per node, or declare them unknown_inputs of the model"
+        )
+    return out
+
+
+def check_parameters(
+    model: Model,
+    known: Mapping[sm.Symbol, Any],
+    unknown: Sequence[sm.Symbol] | None,
+    problems: list[str],
+) -> tuple[dict[sm.Symbol, float], tuple[sm.Symbol, ...]]:
+    """Known values and the unknown parameters; every model parameter must be one of them."""
+    values: dict[sm.Symbol, float] = {}
+    for p, v in known.items():
+        if p not in model.parameters:
+            problems.append(
+                f"known_parameters: {name_of(p)} is not a parameter of the model "
+                f"(parameters: {[name_of(q) for q in model.parameters]})"
+            )
+            continue
+        try:
+            fv = float(v)
+        except (TypeError, ValueError):
+            problems.append(f"known_parameters[{name_of(p)}]: expected a number, found {v!r}")
+            continue
+        if not np.isfinite(fv):
+            problems.append(
+                f"known_parameters[{name_of(p)}]: expected a finite number, found {v!r}"
+            )
+        values[p] = fv
+    if unknown is None:
+        free = tuple(p for p in model.parameters if p not in known)
+    else:
+        free = tuple(unknown)
+        stray = [name_of(p) for p in free if p not in model.parameters]
+        if stray:
+            problems.append(f"unknown_parameters: {stray} are not parameters of the model")
+        both = [name_of(p) for p in free if p in known]
+        if both:
+            problems.append(f"unknown_parameters: {both} are also given in known_parameters")
+        neither = [name_of(p) for p in model.parameters if p not in known and p not in free]
+        if neither:
+            problems.append(
+                f"parameters {neither} are neither known nor unknown; give a value in "
+                "known_parameters or list them in unknown_parameters"
+            )
+    return values, free
+
+
+def check_objective(objective: Any, problems: list[str]) -> list[ObjectiveTerm]:
+    """One term or a sequence of terms (``None``: a feasibility problem)."""
+    if objective is None:
+        return []
+    terms = [objective] if isinstance(objective, ObjectiveTerm) else list(objective)
+    bad = [type(t).__name__ for t in terms if not isinstance(t, ObjectiveTerm)]
+    if bad:
+        problems.append(
+            f"objective: expected Tracking, IntegralCost or TerminalCost terms, found {bad}"
+        )
+    return [t for t in terms if isinstance(t, ObjectiveTerm)]
+
+
+def check_bounds(
+    bounds: Bounds, allowed: Sequence[sm.Basic], problems: list[str]
+) -> dict[sm.Basic, tuple[float, float]]:
+    """Bounds on states, free inputs and unknown parameters."""
+    out: dict[sm.Basic, tuple[float, float]] = {}
+    for s, pair in bounds.items():
+        if s not in allowed:
+            problems.append(
+                f"bounds: {name_of(s)} is not a free quantity (free: "
+                f"{[name_of(a) for a in allowed]})"
+            )
+            continue
+        try:
+            lo, hi = (float(v) for v in pair)
+        except (TypeError, ValueError):
+            problems.append(f"bounds[{name_of(s)}]: expected a pair (lower, upper), found {pair!r}")
+            continue
+        if not lo <= hi:
+            problems.append(f"bounds[{name_of(s)}]: lower {lo} is above upper {hi}")
+        out[s] = (lo, hi)
+    return out
+
+
+def parse_instance_constraints(
+    exprs: Sequence[sm.Expr],
+    node_functions: Sequence[sm.Basic],
+    parameters: Sequence[sm.Symbol],
+    times: np.ndarray,
+    problems: list[str],
+) -> tuple[list[sm.Expr], list[sm.Symbol], list[tuple[int, int]]]:
+    """Replace ``x(t_k)`` by placeholders.
+
+    Returns
+    -------
+    exprs : list of sympy.Expr
+        The constraints in placeholders and parameters.
+    placeholders : list of sympy.Symbol
+    locations : list of (node, position in node_functions)
+    """
+    funcs = {f.func: j for j, f in enumerate(node_functions)}
+    tol = 1e-9 * max(1.0, float(np.max(np.abs(times))))
+    holders: dict[sm.Basic, sm.Symbol] = {}
+    locations: list[tuple[int, int]] = []
+    out: list[sm.Expr] = []
+    for i, e in enumerate(exprs):
+        if not isinstance(e, sm.Basic):
+            problems.append(f"instance_constraints[{i}]: expected a SymPy expression, found {e!r}")
+            continue
+        for a in sorted(e.atoms(AppliedUndef), key=str):
+            if a in holders:
+                continue
+            if a.func not in funcs:
+                problems.append(
+                    f"instance_constraints[{i}]: {a} is not a state or free input trajectory"
+                )
+                continue
+            if len(a.args) != 1 or not a.args[0].is_number:
+                problems.append(
+                    f"instance_constraints[{i}]: {a} must be evaluated at a numeric time, e.g. "
+                    f"{a.func}(0.0)"
+                )
+                continue
+            tk = float(a.args[0])
+            k = int(np.argmin(np.abs(times - tk)))
+            if abs(times[k] - tk) > tol:
+                problems.append(
+                    f"instance_constraints[{i}]: time {tk} of {a} is not a node of the grid "
+                    f"(nearest node t = {times[k]})"
+                )
+                continue
+            holders[a] = sm.Symbol(f"_ic{len(holders)}")
+            locations.append((k, funcs[a.func]))
+        stray = e.free_symbols - set(parameters) - set(holders.values())
+        if stray:
+            problems.append(
+                f"instance_constraints[{i}]: symbols {sorted(map(str, stray))} are not "
+                "parameters of the model"
+            )
+        out.append(e.xreplace(holders))
+    return out, list(holders.values()), locations

@@ -1,0 +1,170 @@
+"""Symbolic templates of one interval, one node and the instance constraints.
+
+The model residual is translated to CasADi once; the scheme turns it into the defects of
+one interval (and one node); the objective becomes one node expression. Each template is
+differentiated once (:class:`colloc.numeric.stencil.StencilFunctions`).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import casadi as ca
+import sympy as sm
+
+from colloc.model.model import Model
+from colloc.model.symbols import name_of
+from colloc.nlp.objective import NodeTerm
+from colloc.numeric.bridge import sympy_to_casadi
+from colloc.numeric.stencil import StencilFunctions
+from colloc.transcription.base import IntervalView, NodeView, Scheme
+
+
+@dataclass(frozen=True)
+class Partition:
+    """Which model quantities are free and which are data."""
+
+    model: Model
+    free_inputs: tuple[sm.Basic, ...]
+    known_inputs: tuple[sm.Basic, ...]
+    unknown_parameters: tuple[sm.Symbol, ...]
+    known_parameters: tuple[sm.Symbol, ...]
+
+    @property
+    def num_states(self) -> int:
+        """``n``."""
+        return self.model.num_states
+
+
+class _Symbols:
+    """SX placeholders for one stencil, and the maps that put them in model order."""
+
+    def __init__(self, part: Partition, scheme: Scheme, prefix: str) -> None:
+        n = part.num_states
+        self.part = part
+        self.n_node = n + len(part.free_inputs) + (n if scheme.node_derivatives else 0)
+        self.pu = ca.SX.sym(f"{prefix}p", len(part.unknown_parameters))
+        self.pk = ca.SX.sym(f"{prefix}pk", len(part.known_parameters))
+        by_symbol = dict(zip(part.unknown_parameters, ca.vertsplit(self.pu), strict=True))
+        by_symbol.update(zip(part.known_parameters, ca.vertsplit(self.pk), strict=True))
+        self.p = ca.vertcat(*(by_symbol[p] for p in part.model.parameters))
+
+    def node(self, z: ca.SX, r_known: ca.SX, t: ca.SX) -> NodeView:
+        n = self.part.num_states
+        nf = len(self.part.free_inputs)
+        x = z[:n]
+        v = z[n + nf : n + nf + n] if z.numel() > n + nf else None
+        return NodeView(x, v, self.inputs(z[n : n + nf], r_known), t)
+
+    def inputs(self, r_free: ca.SX, r_known: ca.SX) -> ca.SX:
+        by_symbol = dict(zip(self.part.free_inputs, ca.vertsplit(r_free), strict=True))
+        by_symbol.update(zip(self.part.known_inputs, ca.vertsplit(r_known), strict=True))
+        return ca.vertcat(*(by_symbol[r] for r in self.part.model.inputs))
+
+
+def residual_function(model: Model) -> ca.Function:
+    """``F(xdot, x, r, p, t)`` of ``model`` as a CasADi function."""
+    n, m = model.num_states, len(model.inputs)
+    xd, x = ca.SX.sym("xd", n), ca.SX.sym("x", n)
+    r, p, t = ca.SX.sym("r", m), ca.SX.sym("p", len(model.parameters)), ca.SX.sym("t")
+    leaves = _leaves(model, xd, x, r, p, t)
+    res = sympy_to_casadi(list(model.residual), leaves)
+    return ca.Function("F", [xd, x, r, p, t], [ca.vertcat(*res)])
+
+
+def _leaves(model: Model, xd: ca.SX, x: ca.SX, r: ca.SX, p: ca.SX, t: ca.SX) -> dict:
+    leaves: dict[sm.Basic, ca.SX] = {model.t: t}
+    leaves.update(zip(model.state_derivatives, ca.vertsplit(xd), strict=True))
+    leaves.update(zip(model.states, ca.vertsplit(x), strict=True))
+    leaves.update(zip(model.inputs, ca.vertsplit(r), strict=True))
+    leaves.update(zip(model.parameters, ca.vertsplit(p), strict=True))
+    return leaves
+
+
+def interval_template(part: Partition, scheme: Scheme, F: ca.Function) -> StencilFunctions:
+    """Defects of one interval: ``w = [node k, node k+1, interval vars, p_unknown]``."""
+    s = _Symbols(part, scheme, "i")
+    n_rk = len(part.known_inputs)
+    z0, z1 = ca.SX.sym("z0", s.n_node), ca.SX.sym("z1", s.n_node)
+    extra = ca.SX.sym("m", scheme.num_interval_variables(part.num_states))
+    r0, r1, rm = ca.SX.sym("r0", n_rk), ca.SX.sym("r1", n_rk), ca.SX.sym("rm", n_rk)
+    t0, h = ca.SX.sym("t0"), ca.SX.sym("h")
+    start, end = s.node(z0, r0, t0), s.node(z1, r1, t0 + h)
+    n, nf = part.num_states, len(part.free_inputs)
+    r_mid = s.inputs(0.5 * (z0[n : n + nf] + z1[n : n + nf]), rm)
+    view = IntervalView(start, end, extra, r_mid, t0, h)
+    g = scheme.interval_defects(lambda xd, x, r, t: F(xd, x, r, s.p, t), view)
+    w = ca.vertcat(z0, z1, extra, s.pu)
+    d = ca.vertcat(r0, r1, rm, s.pk, t0, h)
+    return StencilFunctions.build("interval", w, d, g)
+
+
+def node_template(part: Partition, scheme: Scheme, F: ca.Function) -> StencilFunctions | None:
+    """Defects at one node (schemes with derivative variables): ``w = [node, p_unknown]``."""
+    s = _Symbols(part, scheme, "n")
+    z = ca.SX.sym("z", s.n_node)
+    rk, t = ca.SX.sym("r", len(part.known_inputs)), ca.SX.sym("t")
+    g = scheme.node_defects(lambda xd, x, r, tt: F(xd, x, r, s.p, tt), s.node(z, rk, t))
+    if g is None:
+        return None
+    return StencilFunctions.build("node", ca.vertcat(z, s.pu), ca.vertcat(rk, s.pk, t), g)
+
+
+def objective_template(
+    part: Partition, scheme: Scheme, terms: Sequence[NodeTerm]
+) -> StencilFunctions:
+    """Node objective ``sum_terms c_term * phi_term``: ``w = [node, p_unknown]``.
+
+    Data ``d = [r_known, p_known, t, data of each term..., c of each term...]``.
+    """
+    s = _Symbols(part, scheme, "o")
+    model = part.model
+    z = ca.SX.sym("z", s.n_node)
+    rk, t = ca.SX.sym("r", len(part.known_inputs)), ca.SX.sym("t")
+    nv = s.node(z, rk, t)
+    leaves = _leaves(model, ca.SX.zeros(model.num_states), nv.x, nv.r, s.p, t)
+    data_syms, factors = [], []
+    total = ca.SX(0)
+    for term in terms:
+        dsym = ca.SX.sym("d", len(term.data_symbols))
+        leaves.update(zip(term.data_symbols, ca.vertsplit(dsym), strict=True))
+        c = ca.SX.sym("c")
+        (phi,) = sympy_to_casadi([term.expr], leaves)
+        total = total + c * phi
+        data_syms.append(dsym)
+        factors.append(c)
+    d = ca.vertcat(rk, s.pk, t, *data_syms, *factors)
+    return StencilFunctions.build("objective", ca.vertcat(z, s.pu), d, total)
+
+
+def instance_template(
+    part: Partition,
+    exprs: Sequence[sm.Expr],
+    variables: Sequence[sm.Basic],
+) -> StencilFunctions:
+    """Instance constraints in ``w = [variables..., p_unknown]``, data ``d = p_known``.
+
+    ``variables`` are the placeholder symbols that stand for ``x_j(t_k)`` values.
+    """
+    s = _Symbols(part, _NoScheme(), "c")
+    v = ca.SX.sym("v", len(variables))
+    leaves: dict[sm.Basic, ca.SX] = dict(zip(variables, ca.vertsplit(v), strict=True))
+    leaves.update(zip(part.model.parameters, ca.vertsplit(s.p), strict=True))
+    g = ca.vertcat(*sympy_to_casadi(exprs, leaves))
+    return StencilFunctions.build("instance", ca.vertcat(v, s.pu), s.pk, g)
+
+
+class _NoScheme(Scheme):
+    order = 0
+
+    def interval_defects(self, F, iv):  # type: ignore[no-untyped-def]  # pragma: no cover
+        raise NotImplementedError
+
+
+def row_names(model: Model, scheme: Scheme, count: int, item: str) -> tuple[str, ...]:
+    """Readable names of one item's defect rows (best effort by the model's equations)."""
+    eq = [f"equation {i} ({name_of(x)}')" for i, x in enumerate(model.states)]
+    if count == len(eq):
+        return tuple(f"{scheme.name} {item} defect, {e}" for e in eq)
+    return tuple(f"{scheme.name} {item} defect {i}" for i in range(count))

@@ -1,0 +1,185 @@
+"""Drive IPOPT (with MUMPS) through cyipopt on an assembled NLP.
+
+cyipopt hands IPOPT's callbacks straight to our vectorised evaluators as NumPy arrays;
+a CasADi ``Callback`` inside ``nlpsol`` would route the same arrays through more layers.
+"""
+
+from __future__ import annotations
+
+import os
+import tempfile
+import time
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, Protocol
+
+import numpy as np
+
+from colloc.solve.status import SolveStatus, status_from_code
+
+HESSIAN_CHOICES = ("exact", "limited-memory")
+
+DEFAULT_OPTIONS: dict[str, Any] = {
+    "tol": 1e-8,
+    "max_iter": 3000,
+    "mu_strategy": "adaptive",
+    "linear_solver": "mumps",
+}
+
+
+class NLP(Protocol):
+    """What IPOPT needs from an assembled problem."""
+
+    n: int
+    m: int
+
+    def objective(self, z: np.ndarray) -> float: ...  # noqa: D102
+    def gradient(self, z: np.ndarray) -> np.ndarray: ...  # noqa: D102
+    def constraints(self, z: np.ndarray) -> np.ndarray: ...  # noqa: D102
+    def jacobian(self, z: np.ndarray) -> np.ndarray: ...  # noqa: D102
+    def jacobianstructure(self) -> tuple[np.ndarray, np.ndarray]: ...  # noqa: D102
+    def hessian(self, z: np.ndarray, lagrange: np.ndarray, obj_factor: float) -> np.ndarray: ...  # noqa: D102
+    def hessianstructure(self) -> tuple[np.ndarray, np.ndarray]: ...  # noqa: D102
+
+
+@dataclass
+class IpoptResult:
+    """The raw outcome of :func:`solve_nlp`."""
+
+    x: np.ndarray
+    status: SolveStatus
+    objective: float
+    constraint_violation: float
+    iterations: int
+    solve_time: float
+    multipliers: np.ndarray
+    log: str
+    history: list[dict[str, float]] = field(default_factory=list)
+    options: dict[str, Any] = field(default_factory=dict)
+
+
+class _Callbacks:
+    """Adapts an :class:`NLP` to cyipopt, recording the iteration history."""
+
+    def __init__(self, nlp: NLP, progress: Callable[[dict[str, float]], None] | None) -> None:
+        self.nlp = nlp
+        self.progress = progress
+        self.history: list[dict[str, float]] = []
+        self.objective = nlp.objective
+        self.gradient = nlp.gradient
+        self.constraints = nlp.constraints
+        self.jacobian = nlp.jacobian
+        self.jacobianstructure = nlp.jacobianstructure
+        self.hessian = nlp.hessian
+        self.hessianstructure = nlp.hessianstructure
+
+    def intermediate(
+        self,
+        alg_mod: int,
+        iter_count: int,
+        obj_value: float,
+        inf_pr: float,
+        inf_du: float,
+        mu: float,
+        d_norm: float,
+        regularization_size: float,
+        alpha_du: float,
+        alpha_pr: float,
+        ls_trials: int,
+    ) -> bool:
+        row = {
+            "iteration": float(iter_count),
+            "objective": float(obj_value),
+            "infeasibility": float(inf_pr),
+            "dual_infeasibility": float(inf_du),
+        }
+        self.history.append(row)
+        if self.progress is not None:
+            return self.progress(row) is not False
+        return True
+
+
+def solve_nlp(
+    nlp: NLP,
+    x0: np.ndarray,
+    lower: np.ndarray,
+    upper: np.ndarray,
+    *,
+    hessian: str = "exact",
+    progress: Callable[[dict[str, float]], None] | None = None,
+    log_path: str | os.PathLike[str] | None = None,
+    options: Mapping[str, Any] | None = None,
+) -> IpoptResult:
+    """Solve ``min f(z) s.t. g(z) = 0, lower <= z <= upper`` with IPOPT.
+
+    Parameters
+    ----------
+    nlp : NLP
+    x0, lower, upper : ndarray
+    hessian : {"exact", "limited-memory"}
+    progress : callable, optional
+        Called after every iteration; returning ``False`` stops the solve.
+    log_path : path, optional
+        Where to keep IPOPT's log (a temporary file otherwise; its text is returned).
+    options : mapping, optional
+        IPOPT options, overriding :data:`DEFAULT_OPTIONS`.
+
+    Returns
+    -------
+    IpoptResult
+    """
+    import cyipopt
+
+    if hessian not in HESSIAN_CHOICES:
+        raise ValueError(f"hessian: expected one of {HESSIAN_CHOICES}, found {hessian!r}")
+    opts = {**DEFAULT_OPTIONS, "hessian_approximation": hessian, **dict(options or {})}
+    callbacks = _Callbacks(nlp, progress)
+    problem = cyipopt.Problem(
+        n=nlp.n,
+        m=nlp.m,
+        problem_obj=callbacks,
+        lb=lower,
+        ub=upper,
+        cl=np.zeros(nlp.m),
+        cu=np.zeros(nlp.m),
+    )
+    tmp_dir = None
+    if log_path is None:
+        tmp_dir = tempfile.TemporaryDirectory(prefix="colloc-ipopt-")
+        log_file = Path(tmp_dir.name) / "ipopt.log"
+    else:
+        log_file = Path(log_path)
+        log_file.parent.mkdir(parents=True, exist_ok=True)
+    opts.setdefault("print_level", 0)
+    opts.setdefault("file_print_level", 5)
+    opts["output_file"] = str(log_file)
+    opts.setdefault("sb", "yes")
+    try:
+        for key, value in opts.items():
+            try:
+                problem.add_option(key, value)
+            except TypeError as exc:
+                raise ValueError(f"ipopt option {key}={value!r} was refused: {exc}") from exc
+        t0 = time.perf_counter()
+        x, info = problem.solve(np.asarray(x0, dtype=float))
+        elapsed = time.perf_counter() - t0
+        log = log_file.read_text(errors="replace") if log_file.is_file() else ""
+    finally:
+        problem.close()
+        if tmp_dir is not None:
+            tmp_dir.cleanup()
+    g = np.asarray(info["g"], dtype=float)
+    iterations = int(callbacks.history[-1]["iteration"]) if callbacks.history else 0
+    return IpoptResult(
+        x=np.asarray(x, dtype=float),
+        status=status_from_code(int(info["status"])),
+        objective=float(info["obj_val"]),
+        constraint_violation=float(np.max(np.abs(g))) if g.size else 0.0,
+        iterations=iterations,
+        solve_time=elapsed,
+        multipliers=np.asarray(info["mult_g"], dtype=float),
+        log=log,
+        history=callbacks.history,
+        options={k: v for k, v in opts.items() if k != "output_file"},
+    )
