@@ -1,0 +1,100 @@
+"""Canonical column names and units of a gait trial.
+
+Every gait trial that colloc reads or writes uses these names, so that synthetic trials,
+converted gait-lab output and the identification workflow agree on one vocabulary.
+
+Units (SI, angles in radians):
+
+============================  =======  ==============================================
+column                        unit     meaning
+============================  =======  ==============================================
+``time``                      s        sample time
+``<side>_<joint>_angle``      rad      joint angle, gait2d convention (hip flexion +,
+                                       knee extension +, i.e. minus knee flexion,
+                                       ankle dorsiflexion +)
+``<side>_<joint>_rate``       rad/s    time derivative of the joint angle
+``trunk_x``, ``trunk_y``      m        trunk (pelvis) reference point, x forward, y up
+``trunk_angle``               rad      trunk orientation, counter-clockwise +
+``belt_speed``                m/s      treadmill belt speed
+``belt_position``             m        treadmill belt position (integral of belt speed)
+``<side>_<joint>_torque``     N·m      joint torque (optional; absent in most real data)
+============================  =======  ==============================================
+
+with ``<side>`` in ``right``, ``left`` and ``<joint>`` in ``hip``, ``knee``, ``ankle``.
+"""
+
+from __future__ import annotations
+
+SIDES: tuple[str, ...] = ("right", "left")
+"""Body sides, in the order used by every side-indexed tuple in this module."""
+
+JOINTS: tuple[str, ...] = ("hip", "knee", "ankle")
+"""Joints of one leg, proximal to distal."""
+
+TIME_COLUMN: str = "time"
+"""Name of the time column of a trial file."""
+
+JOINT_ANGLE_COLUMNS: tuple[str, ...] = tuple(
+    f"{side}_{joint}_angle" for side in SIDES for joint in JOINTS
+)
+"""Joint angles [rad]: right hip, knee, ankle, then left hip, knee, ankle."""
+
+JOINT_RATE_COLUMNS: tuple[str, ...] = tuple(
+    f"{side}_{joint}_rate" for side in SIDES for joint in JOINTS
+)
+"""Joint angular rates [rad/s], same order as :data:`JOINT_ANGLE_COLUMNS`."""
+
+TRUNK_COLUMNS: tuple[str, ...] = ("trunk_x", "trunk_y", "trunk_angle")
+"""Trunk position [m] and orientation [rad]."""
+
+BELT_COLUMNS: tuple[str, ...] = ("belt_speed", "belt_position")
+"""Treadmill belt speed [m/s] and position [m]."""
+
+TORQUE_COLUMNS: tuple[str, ...] = tuple(
+    f"{side}_{joint}_torque" for side in SIDES for joint in JOINTS
+)
+"""Joint torques [N·m], same order as :data:`JOINT_ANGLE_COLUMNS`; optional in a trial."""
+
+REQUIRED_COLUMNS: tuple[str, ...] = (
+    JOINT_ANGLE_COLUMNS + JOINT_RATE_COLUMNS + TRUNK_COLUMNS + BELT_COLUMNS
+)
+"""Signal columns every trial must have (the time column is kept apart)."""
+
+SIGNAL_COLUMNS: tuple[str, ...] = REQUIRED_COLUMNS + TORQUE_COLUMNS
+"""All canonical signal columns, in the order a trial file is written."""
+
+
+def _units() -> dict[str, str]:
+    units = {TIME_COLUMN: "s"}
+    units.update(dict.fromkeys(JOINT_ANGLE_COLUMNS, "rad"))
+    units.update(dict.fromkeys(JOINT_RATE_COLUMNS, "rad/s"))
+    units.update({"trunk_x": "m", "trunk_y": "m", "trunk_angle": "rad"})
+    units.update({"belt_speed": "m/s", "belt_position": "m"})
+    units.update(dict.fromkeys(TORQUE_COLUMNS, "N·m"))
+    return units
+
+
+COLUMN_UNITS: dict[str, str] = _units()
+"""Unit of every canonical column (including ``time``)."""
+
+
+def normalize_unit(unit: str) -> str:
+    """Return a unit string in a spelling-independent form for comparison.
+
+    Spaces, multiplication signs (``·``, ``⋅``, ``*``) and case are ignored, so
+    ``"N·m"``, ``"N m"``, ``"Nm"`` and ``"n*m"`` compare equal.
+
+    Parameters
+    ----------
+    unit : str
+        A unit as written in a metadata file.
+
+    Returns
+    -------
+    str
+        The normalised spelling.
+    """
+    normalized = unit.strip().lower()
+    for separator in (" ", "·", "⋅", "*"):
+        normalized = normalized.replace(separator, "")
+    return normalized

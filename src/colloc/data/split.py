@@ -1,0 +1,82 @@
+"""Split a gait trial into an identification (fit) part and a validation part."""
+
+from __future__ import annotations
+
+import copy
+
+import numpy as np
+
+from colloc.data.columns import SIDES
+from colloc.data.trial import Trial
+
+MIN_STRIDES = 2
+"""Fewest complete strides (right heel strike to right heel strike) each part must keep."""
+
+
+def _count_strides(right_heel_strikes: np.ndarray) -> int:
+    return max(right_heel_strikes.size - 1, 0)
+
+
+def split(trial: Trial, fit_fraction: float = 0.75) -> tuple[Trial, Trial]:
+    """Split a trial in time: fit on the first part, validate on the rest.
+
+    The first ``round(fit_fraction * M)`` samples form the fit part and the remaining
+    samples the validation part (no sample is shared). Heel strikes go to the part whose
+    time range contains them; a strike that falls strictly between the last fit sample
+    and the first validation sample belongs to neither and is dropped. Both parts get a
+    deep copy of the metadata with a ``split`` entry (``part``, ``fit_fraction``).
+
+    Parameters
+    ----------
+    trial : Trial
+        The trial to split.
+    fit_fraction : float
+        Fraction of the samples used for fitting, strictly between 0 and 1. The seed
+        document uses 3/4 for identification and 1/4 for validation.
+
+    Returns
+    -------
+    fit, validate : Trial
+        The two parts.
+
+    Raises
+    ------
+    ValueError
+        If ``fit_fraction`` is not in (0, 1), or either part keeps fewer than
+        :data:`MIN_STRIDES` complete strides (counted between right heel strikes).
+    """
+    if isinstance(fit_fraction, bool) or not isinstance(fit_fraction, int | float):
+        raise TypeError(f"fit_fraction must be a number, found {type(fit_fraction).__name__}")
+    if not 0.0 < fit_fraction < 1.0:
+        raise ValueError(f"fit_fraction must lie strictly between 0 and 1, found {fit_fraction}")
+    num_samples = trial.time.size
+    num_fit = int(round(fit_fraction * num_samples))
+    if not 2 <= num_fit <= num_samples - 2:
+        raise ValueError(
+            f"fit_fraction={fit_fraction} of {num_samples} samples leaves {num_fit} fit and "
+            f"{num_samples - num_fit} validation samples; each part needs at least 2"
+        )
+    parts = []
+    for part, rows in (("fit", slice(0, num_fit)), ("validate", slice(num_fit, None))):
+        time = trial.time[rows]
+        strikes = {}
+        for side in SIDES:
+            all_strikes = getattr(trial, f"{side}_heel_strikes")
+            inside = (all_strikes >= time[0]) & (all_strikes <= time[-1])
+            strikes[side] = all_strikes[inside]
+        metadata = copy.deepcopy(trial.metadata)
+        metadata["split"] = {"part": part, "fit_fraction": float(fit_fraction)}
+        signals = trial.signals.iloc[rows].reset_index(drop=True)
+        parts.append(Trial(time, signals, strikes["right"], strikes["left"], metadata))
+    fit, validate = parts
+    strides = {
+        "fit": _count_strides(fit.right_heel_strikes),
+        "validate": _count_strides(validate.right_heel_strikes),
+    }
+    if min(strides.values()) < MIN_STRIDES:
+        raise ValueError(
+            f"fit_fraction={fit_fraction} leaves {strides['fit']} complete strides in the fit "
+            f"part and {strides['validate']} in the validation part; each needs at least "
+            f"{MIN_STRIDES} (strides counted between right heel strikes)"
+        )
+    return fit, validate

@@ -1,0 +1,339 @@
+"""Trial files: reading a gait-lab style TSV, round trips, atomic writes, every error path."""
+
+from __future__ import annotations
+
+import shutil
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import pytest
+import yaml
+
+import colloc.data.trial as trial_module
+from colloc.data.checks import TrialError
+from colloc.data.columns import (
+    COLUMN_UNITS,
+    JOINTS,
+    SIDES,
+    SIGNAL_COLUMNS,
+    TORQUE_COLUMNS,
+    normalize_unit,
+)
+from colloc.data.trial import Trial, detect_delimiter, read_trial
+
+FIXTURE = Path(__file__).resolve().parent / "fixtures" / "gait_trial_tsv"
+
+
+def expected_signal(name: str, time: np.ndarray) -> np.ndarray:
+    """Closed form used by fixtures/make_gait_trial_tsv.py (before rounding)."""
+    joints = [f"{side}_{joint}" for side in SIDES for joint in JOINTS]
+    for j, joint in enumerate(joints):
+        phase = 2 * np.pi * time + 0.3 * j
+        closed_forms = {
+            f"{joint}_angle": 0.5 * np.sin(phase),
+            f"{joint}_rate": np.pi * np.cos(phase),
+            f"{joint}_torque": 10.0 * np.sin(phase),
+        }
+        if name in closed_forms:
+            return closed_forms[name]
+    return {
+        "trunk_x": 0.05 * np.sin(2 * np.pi * time),
+        "trunk_y": np.ones_like(time),
+        "trunk_angle": 0.02 * np.cos(2 * np.pi * time),
+        "belt_speed": np.full_like(time, 1.2),
+        "belt_position": 1.2 * time,
+    }[name]
+
+
+@pytest.fixture
+def trial() -> Trial:
+    return read_trial(FIXTURE)
+
+
+@pytest.fixture
+def trial_dir(tmp_path: Path, trial: Trial) -> Path:
+    return trial.write(tmp_path / "trial")
+
+
+def test_read_gait_lab_tsv_matches_closed_form(trial: Trial) -> None:
+    np.testing.assert_allclose(trial.time, np.arange(201) * 0.05, atol=1e-12)
+    for name in SIGNAL_COLUMNS:
+        np.testing.assert_allclose(
+            trial.signals[name], expected_signal(name, trial.time), atol=5.1e-7, err_msg=name
+        )
+    assert "marker_gaps" in trial.signals.columns  # extra columns are kept
+    np.testing.assert_allclose(trial.right_heel_strikes, 0.27 + np.arange(10))
+    np.testing.assert_allclose(trial.left_heel_strikes, 0.77 + np.arange(10))
+    assert trial.metadata["body_mass"] == 70.5
+    assert trial.metadata["controller"]["gains"][1] == [[5.0, 6.0], [7.0, 8.0]]
+
+
+def test_read_time_series_file_path_uses_sibling_files(trial: Trial) -> None:
+    by_file = read_trial(FIXTURE / "trial.tsv")
+    np.testing.assert_array_equal(by_file.time, trial.time)
+    np.testing.assert_array_equal(by_file.left_heel_strikes, trial.left_heel_strikes)
+
+
+def test_round_trip_is_exact_and_adds_units(tmp_path: Path, trial: Trial) -> None:
+    trial.metadata["controller"]["offsets"] = np.array([0.5, np.float64(1.25)])
+    trial.metadata["seed"] = np.int64(7)
+    trial.metadata.pop("units")
+    again = read_trial(trial.write(tmp_path / "out"))
+    np.testing.assert_array_equal(again.time, trial.time)
+    pd.testing.assert_frame_equal(again.signals, trial.signals, check_dtype=False)
+    np.testing.assert_array_equal(again.right_heel_strikes, trial.right_heel_strikes)
+    np.testing.assert_array_equal(again.left_heel_strikes, trial.left_heel_strikes)
+    assert again.metadata["controller"]["offsets"] == [0.5, 1.25]
+    assert again.metadata["seed"] == 7
+    assert again.metadata["units"]["left_ankle_torque"] == "N·m"
+    assert again.metadata["units"]["time"] == "s"
+    assert "marker_gaps" not in again.metadata["units"]
+
+
+def test_write_refuses_existing_directory(trial_dir: Path, trial: Trial) -> None:
+    with pytest.raises(FileExistsError, match="already exists; pass overwrite=True"):
+        trial.write(trial_dir)
+
+
+def test_overwrite_replaces_trial_and_leaves_no_temporaries(trial_dir: Path, trial: Trial) -> None:
+    trial.signals["belt_speed"] = 1.5
+    trial.write(trial_dir, overwrite=True)
+    assert np.all(read_trial(trial_dir).signals["belt_speed"] == 1.5)
+    assert [p.name for p in trial_dir.parent.iterdir()] == ["trial"]
+
+
+def test_failed_write_keeps_the_good_trial(
+    trial_dir: Path, trial: Trial, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    before = (trial_dir / "trial.csv").read_bytes()
+
+    def broken_dump(*args: object, **kwargs: object) -> None:
+        raise OSError("disk full")
+
+    monkeypatch.setattr(trial_module.yaml, "safe_dump", broken_dump)
+    trial.signals["belt_speed"] = 1.5
+    with pytest.raises(OSError, match="disk full"):
+        trial.write(trial_dir, overwrite=True)
+    with pytest.raises(OSError, match="disk full"):
+        trial.write(trial_dir.parent / "fresh")
+    assert (trial_dir / "trial.csv").read_bytes() == before
+    assert [p.name for p in trial_dir.parent.iterdir()] == ["trial"]
+
+
+def test_invalid_trial_is_not_written(tmp_path: Path, trial: Trial) -> None:
+    trial.signals.loc[3, "trunk_y"] = np.nan
+    with pytest.raises(TrialError, match="column 'trunk_y' has 1 NaN"):
+        trial.write(tmp_path / "bad")
+    assert not (tmp_path / "bad").exists()
+
+
+def test_construction_checks_types_and_shapes(trial: Trial) -> None:
+    with pytest.raises(TypeError, match="signals must be a pandas.DataFrame, found dict"):
+        Trial(trial.time, {}, trial.right_heel_strikes, trial.left_heel_strikes)
+    with pytest.raises(TrialError, match=r"one row per time sample \(200\), found 201 rows"):
+        Trial(trial.time[:-1], trial.signals, trial.right_heel_strikes, trial.left_heel_strikes)
+    with pytest.raises(TrialError, match=r"left_heel_strikes must be 1-D, found shape \(1, 2\)"):
+        Trial(trial.time, trial.signals, [1.0], [[1.0, 2.0]])
+
+
+def test_detect_delimiter(tmp_path: Path) -> None:
+    assert detect_delimiter(FIXTURE / "trial.tsv") == "\t"
+    assert detect_delimiter(FIXTURE / "events.csv") == ","
+    (tmp_path / "one.tsv").write_text("time\n0\n")
+    (tmp_path / "one.csv").write_text("time\n0\n")
+    (tmp_path / "semi.csv").write_text("time;x\n0;1\n")
+    assert detect_delimiter(tmp_path / "one.tsv") == "\t"
+    assert detect_delimiter(tmp_path / "one.csv") == ","
+    assert detect_delimiter(tmp_path / "semi.csv") == ";"
+
+
+def test_unit_spellings_compare_equal() -> None:
+    assert normalize_unit("N m") == normalize_unit("N·m") == normalize_unit("n*M")
+    assert normalize_unit("rad/s") != normalize_unit("rad")
+    assert {COLUMN_UNITS[name] for name in TORQUE_COLUMNS} == {"N·m"}
+
+
+# --- error paths of read_trial ------------------------------------------------------------
+
+
+def _edit_series(directory: Path, edit) -> None:
+    frame = edit(pd.read_csv(directory / "trial.csv"))
+    frame.to_csv(directory / "trial.csv", index=False)
+
+
+def _edit_metadata(directory: Path, edit) -> None:
+    metadata = yaml.safe_load((directory / "metadata.yaml").read_text(encoding="utf-8"))
+    edit(metadata)
+    (directory / "metadata.yaml").write_text(yaml.safe_dump(metadata), encoding="utf-8")
+
+
+def test_missing_columns_are_listed(trial_dir: Path) -> None:
+    _edit_series(trial_dir, lambda f: f.drop(columns=["trunk_y", "right_knee_angle"]))
+    with pytest.raises(TrialError, match=r"missing columns \['right_knee_angle', 'trunk_y'\]"):
+        read_trial(trial_dir)
+
+
+def test_incomplete_torques_are_listed(trial_dir: Path) -> None:
+    _edit_series(trial_dir, lambda f: f.drop(columns=["left_hip_torque"]))
+    with pytest.raises(TrialError, match=r"missing columns \['left_hip_torque'\].*all 6 or none"):
+        read_trial(trial_dir)
+
+
+def test_trial_without_torques_is_valid(trial_dir: Path) -> None:
+    _edit_series(trial_dir, lambda f: f.drop(columns=list(TORQUE_COLUMNS)))
+    assert not set(TORQUE_COLUMNS) & set(read_trial(trial_dir).signals.columns)
+
+
+def test_misspelled_column_is_hinted(trial_dir: Path) -> None:
+    _edit_series(trial_dir, lambda f: f.rename(columns={"trunk_y": "trunkY"}))
+    with pytest.raises(TrialError, match=r"not recognised: \['marker_gaps', 'trunkY'\]"):
+        read_trial(trial_dir)
+
+
+def test_missing_time_column(trial_dir: Path) -> None:
+    _edit_series(trial_dir, lambda f: f.rename(columns={"time": "Time"}))
+    with pytest.raises(TrialError, match="missing time column 'time'"):
+        read_trial(trial_dir)
+
+
+def test_non_monotonic_time_names_first_sample(trial_dir: Path) -> None:
+    def swap(frame: pd.DataFrame) -> pd.DataFrame:
+        frame.loc[[4, 5], "time"] = frame.loc[[5, 4], "time"].to_numpy()
+        return frame
+
+    _edit_series(trial_dir, swap)
+    with pytest.raises(TrialError, match=r"sample 5 \(time 0.2 s\) is not after sample 4"):
+        read_trial(trial_dir)
+
+
+def test_nans_are_counted_per_column(trial_dir: Path) -> None:
+    def spoil(frame: pd.DataFrame) -> pd.DataFrame:
+        frame.loc[[10, 11, 40], "left_hip_rate"] = np.nan
+        frame["belt_speed"] = frame["belt_speed"].astype(object)
+        frame.loc[7, "belt_speed"] = "n/a"
+        return frame
+
+    _edit_series(trial_dir, spoil)
+    with pytest.raises(TrialError) as info:
+        read_trial(trial_dir)
+    message = str(info.value)
+    assert "column 'left_hip_rate' has 3 NaN/infinite/non-numeric values" in message
+    assert "(first at sample 10, time 0.5 s)" in message
+    assert "column 'belt_speed' has 1 NaN" in message
+
+
+def test_non_uniform_sampling(trial_dir: Path) -> None:
+    _edit_series(trial_dir, lambda f: f.assign(time=f["time"].where(f.index != 50, 2.52)))
+    with pytest.raises(TrialError, match=r"not uniformly sampled: 2 steps .* first between "):
+        read_trial(trial_dir)
+    assert read_trial(trial_dir, sampling_tolerance=0.5).time[50] == 2.52
+
+
+def test_sample_rate_must_agree_with_time(trial_dir: Path) -> None:
+    _edit_metadata(trial_dir, lambda m: m.__setitem__("sample_rate", 100))
+    with pytest.raises(TrialError, match="'sample_rate' is 100 Hz but .* sampled at 20 Hz"):
+        read_trial(trial_dir)
+
+
+def test_heel_strikes_out_of_order_and_range(trial_dir: Path) -> None:
+    events = pd.read_csv(trial_dir / "events.csv")
+    events.loc[events.side == "right", "time"] = [0.27, 2.27, 1.27, 3.27, 4, 5, 6, 7, 8, 12.5]
+    events.to_csv(trial_dir / "events.csv", index=False)
+    with pytest.raises(TrialError) as info:
+        read_trial(trial_dir)
+    message = str(info.value)
+    assert "right_heel_strikes are not strictly increasing: strike 2 (1.27 s)" in message
+    assert (
+        "right_heel_strikes has 1 strikes outside the time range [0, 10] s, first 12.5" in message
+    )
+
+
+def test_wrong_units_and_bad_constants(trial_dir: Path) -> None:
+    def spoil(metadata: dict) -> None:
+        metadata["units"]["right_hip_angle"] = "deg"
+        metadata["units"]["belt_position"] = "mm"
+        metadata["body_mass"] = -70
+
+    _edit_metadata(trial_dir, spoil)
+    with pytest.raises(TrialError) as info:
+        read_trial(trial_dir)
+    message = str(info.value)
+    assert "'right_hip_angle': expected 'rad', found 'deg'" in message
+    assert "'belt_position': expected 'm', found 'mm'" in message
+    assert "metadata 'body_mass' must be a positive number, found -70" in message
+    assert len(info.value.problems) == 2
+
+
+def test_units_must_be_a_mapping(trial_dir: Path) -> None:
+    _edit_metadata(trial_dir, lambda m: m.__setitem__("units", "SI"))
+    with pytest.raises(TrialError, match="'units' must map column names to units, found str"):
+        read_trial(trial_dir)
+
+
+def test_metadata_file_problems(trial_dir: Path) -> None:
+    (trial_dir / "metadata.yaml").write_text("- just\n- a list\n")
+    with pytest.raises(TrialError, match="metadata.yaml must hold a mapping, found list"):
+        read_trial(trial_dir)
+    (trial_dir / "metadata.yaml").write_text("a: [unclosed\n")
+    with pytest.raises(TrialError, match="cannot parse metadata.yaml"):
+        read_trial(trial_dir)
+    (trial_dir / "metadata.yaml").unlink()
+    assert read_trial(trial_dir).metadata == {}
+
+
+def test_events_file_problems(trial_dir: Path) -> None:
+    events = pd.read_csv(trial_dir / "events.csv")
+    events.loc[0, "side"] = "middle"
+    events.to_csv(trial_dir / "events.csv", index=False)
+    with pytest.raises(TrialError, match=r"'side' must be one of \['right', 'left'\].*'middle'"):
+        read_trial(trial_dir)
+    events.rename(columns={"time": "t"}).to_csv(trial_dir / "events.csv", index=False)
+    with pytest.raises(TrialError, match=r"events.csv is missing columns \['time'\]"):
+        read_trial(trial_dir)
+    (trial_dir / "events.csv").unlink()
+    with pytest.raises(TrialError, match=r"heel-strike file events.csv not found"):
+        read_trial(trial_dir)
+
+
+def test_all_problems_reported_at_once(trial_dir: Path) -> None:
+    _edit_series(trial_dir, lambda f: f.drop(columns=["trunk_x"]))
+    _edit_metadata(trial_dir, lambda m: m["units"].__setitem__("time", "ms"))
+    (trial_dir / "events.csv").write_text("side,time\nright,-1\n")
+    with pytest.raises(TrialError, match="3 problems found") as info:
+        read_trial(trial_dir)
+    assert [p.split(" ")[0] for p in info.value.problems] == [
+        "missing",
+        "right_heel_strikes",
+        "metadata",
+    ]
+
+
+def test_missing_paths(tmp_path: Path) -> None:
+    with pytest.raises(FileNotFoundError, match="does not exist"):
+        read_trial(tmp_path / "nowhere")
+    with pytest.raises(TrialError, match=r"no time-series file found; expected one of"):
+        read_trial(tmp_path)
+    (tmp_path / "trial.csv").write_text("")
+    shutil.copy(FIXTURE / "events.csv", tmp_path / "events.csv")
+    with pytest.raises(TrialError, match="cannot parse trial.csv"):
+        read_trial(tmp_path)
+
+
+def test_content_problems_of_a_trial_in_memory(trial: Trial) -> None:
+    short = Trial(trial.time[:1], trial.signals.iloc[:1], [], [], {"height": "tall"})
+    found = short.problems()
+    assert found == [
+        "column 'time' needs at least 2 samples, found 1",
+        "metadata 'height' must be a positive number, found 'tall'",
+    ]
+    time = trial.time.copy()
+    time[3] = np.nan
+    odd = Trial(time, trial.signals, [np.nan, 1.0], trial.left_heel_strikes, ["not", "a", "map"])
+    with pytest.raises(TrialError, match="3 problems found") as info:
+        odd.validate()
+    assert info.value.problems == [
+        "column 'time' has 1 NaN/infinite values (first at sample 3)",
+        "right_heel_strikes has 1 NaN/infinite times",
+        "metadata must be a mapping, found list",
+    ]
