@@ -1,0 +1,366 @@
+"""The results database: add, list, get, export and delete runs.
+
+Any SQLAlchemy URL works; the default is an SQLite file in the working directory. Each run is
+written in one transaction, so a failure part-way through leaves the database exactly as it
+was before.
+"""
+
+from __future__ import annotations
+
+import builtins
+import json
+import sqlite3
+from collections.abc import Sequence
+from datetime import UTC, datetime
+from pathlib import Path
+from typing import Any
+
+import pandas as pd
+from sqlalchemy import Engine, create_engine, event, func, insert, select
+from sqlalchemy.engine import make_url
+from sqlalchemy.exc import ArgumentError, IntegrityError, NoSuchModuleError, SQLAlchemyError
+
+from colloc.store import schema
+from colloc.store.errors import DuplicateRunError, StoreURLError
+from colloc.store.export import EXPORTERS, export_record
+from colloc.store.queries import delete_run, insert_run, resolve_run_id
+from colloc.store.record import (
+    ParameterRow,
+    RunRecord,
+    decode_array,
+    utc,
+    validate_record,
+)
+
+DEFAULT_URL = "sqlite:///colloc-runs.db"
+#: Settings shown by :meth:`RunStore.list` (dotted keys reach into nested settings).
+DEFAULT_SETTING_COLUMNS = ("num_links", "scheme", "num_nodes", "duration", "sample_rate")
+#: Solver statistics shown by :meth:`RunStore.list`.
+DEFAULT_STATISTIC_COLUMNS = ("success", "iterations", "objective", "solve_time")
+
+
+def _on_sqlite_connect(dbapi_connection: Any, connection_record: Any) -> None:
+    # SQLite ignores foreign keys unless asked, and fails at once on a locked file unless
+    # given a timeout; parallel batch runs write to the same file.
+    if isinstance(dbapi_connection, sqlite3.Connection):
+        cursor = dbapi_connection.cursor()
+        cursor.execute("PRAGMA foreign_keys=ON")
+        cursor.execute("PRAGMA busy_timeout=30000")
+        cursor.close()
+
+
+class RunStore:
+    """A database of identification runs.
+
+    Parameters
+    ----------
+    url : str, optional
+        SQLAlchemy database URL, e.g. ``"sqlite:///colloc-runs.db"`` (the default),
+        ``"sqlite://"`` (in memory) or ``"postgresql+psycopg://user@host/db"``.
+
+    Raises
+    ------
+    StoreURLError
+        If ``url`` is not a URL, names a backend without an installed driver, or the
+        database cannot be opened or created.
+
+    Examples
+    --------
+    >>> store = RunStore("sqlite://")
+    >>> store.list().empty
+    True
+    """
+
+    def __init__(self, url: str = DEFAULT_URL) -> None:
+        if not isinstance(url, str):
+            raise StoreURLError(f"url: expected a str, found {type(url).__name__}")
+        try:
+            make_url(url)
+            self._engine: Engine = create_engine(url)
+        except (ArgumentError, NoSuchModuleError, ImportError, ValueError) as error:
+            raise StoreURLError(
+                f"url: expected a SQLAlchemy database URL such as {DEFAULT_URL!r}, "
+                f"found {url!r} ({error})"
+            ) from error
+        event.listen(self._engine, "connect", _on_sqlite_connect)
+        self.url = url
+        try:
+            self._prepare_schema()
+        except SQLAlchemyError as error:
+            self._engine.dispose()
+            cause = getattr(error, "orig", None) or error
+            raise StoreURLError(
+                f"url: could not open or create the database at {url!r} "
+                f"({type(error).__name__}: {cause})"
+            ) from error
+        except StoreURLError:
+            self._engine.dispose()
+            raise
+
+    def _prepare_schema(self) -> None:
+        schema.metadata.create_all(self._engine)
+        with self._engine.begin() as connection:
+            versions = connection.execute(select(schema.schema_info.c.version)).scalars().all()
+            if not versions:
+                connection.execute(insert(schema.schema_info).values(version=schema.SCHEMA_VERSION))
+            elif versions != [schema.SCHEMA_VERSION]:
+                raise StoreURLError(
+                    f"url: the database at {self.url!r} has schema version {versions}, this "
+                    f"colloc reads version {schema.SCHEMA_VERSION}; use a new database file"
+                )
+
+    def close(self) -> None:
+        """Release the database connections."""
+        self._engine.dispose()
+
+    def __enter__(self) -> RunStore:
+        return self
+
+    def __exit__(self, *exc_info: object) -> None:
+        self.close()
+
+    def __repr__(self) -> str:
+        return f"RunStore({self.url!r})"
+
+    # ----------------------------------------------------------------------------- writing
+
+    def add(self, record: RunRecord, *, replace: bool = False) -> None:
+        """Store a run, all of it or nothing.
+
+        Parameters
+        ----------
+        record : RunRecord
+            The run. A ``created`` of ``None`` is set to the current UTC time.
+        replace : bool, optional
+            Replace a stored run with the same id instead of raising.
+
+        Raises
+        ------
+        RecordError
+            If the record has problems (all are listed).
+        DuplicateRunError
+            If a run with this id is stored and ``replace`` is false.
+        """
+        validate_record(record)
+        created = utc(record.created) if record.created is not None else datetime.now(UTC)
+        duplicate = DuplicateRunError(
+            f"record.run_id: a run with id {record.run_id!r} is already stored; "
+            "pass replace=True to overwrite it or delete it first"
+        )
+        try:
+            with self._engine.begin() as connection:
+                exists = connection.execute(
+                    select(schema.runs.c.run_id).where(schema.runs.c.run_id == record.run_id)
+                ).first()
+                if exists is not None:
+                    if not replace:
+                        raise duplicate
+                    delete_run(connection, record.run_id)
+                insert_run(connection, record, created)
+        except IntegrityError as error:
+            # Another process stored the same id between our check and our insert.
+            raise duplicate from error
+
+    def delete(self, run_id: str) -> str:
+        """Delete a run.
+
+        Parameters
+        ----------
+        run_id : str
+            Full id or unique prefix.
+
+        Returns
+        -------
+        str
+            The full id of the deleted run.
+
+        Raises
+        ------
+        RunNotFoundError
+            If no run or more than one run matches.
+        """
+        with self._engine.begin() as connection:
+            full_id = resolve_run_id(connection, run_id)
+            delete_run(connection, full_id)
+        return full_id
+
+    # ----------------------------------------------------------------------------- reading
+
+    def resolve(self, run_id: str) -> str:
+        """Return the full id of the run that ``run_id`` (an id or unique prefix) names.
+
+        Parameters
+        ----------
+        run_id : str
+            Full id or unique prefix.
+
+        Returns
+        -------
+        str
+            The full run id.
+
+        Raises
+        ------
+        RunNotFoundError
+            If no run or more than one run matches.
+        """
+        with self._engine.connect() as connection:
+            return resolve_run_id(connection, run_id)
+
+    def get(self, run_id: str) -> RunRecord:
+        """Load a run.
+
+        Parameters
+        ----------
+        run_id : str
+            Full id or unique prefix.
+
+        Returns
+        -------
+        RunRecord
+            The stored record; arrays are read back exactly (dtype, shape and values).
+
+        Raises
+        ------
+        RunNotFoundError
+            If no run or more than one run matches.
+        """
+        with self._engine.connect() as connection:
+            full_id = resolve_run_id(connection, run_id)
+            run = connection.execute(
+                select(schema.runs).where(schema.runs.c.run_id == full_id)
+            ).one()
+            parameter_rows = connection.execute(
+                select(schema.parameters)
+                .where(schema.parameters.c.run_id == full_id)
+                .order_by(schema.parameters.c.position)
+            ).all()
+            array_rows = connection.execute(
+                select(schema.arrays.c.name, schema.arrays.c.data)
+                .where(schema.arrays.c.run_id == full_id)
+                .order_by(schema.arrays.c.position)
+            ).all()
+        return RunRecord(
+            run_id=run.run_id,
+            kind=run.kind,
+            settings=json.loads(run.settings),
+            versions=json.loads(run.versions),
+            statistics=json.loads(run.statistics),
+            ipopt_log=run.ipopt_log,
+            parameters=[
+                ParameterRow(row.name, row.known, row.identified, row.std_error)
+                for row in parameter_rows
+            ],
+            arrays={row.name: decode_array(row.data) for row in array_rows},
+            created=utc(run.created),
+        )
+
+    def list(
+        self,
+        settings: Sequence[str] = DEFAULT_SETTING_COLUMNS,
+        statistics: Sequence[str] = DEFAULT_STATISTIC_COLUMNS,
+        kind: str | None = None,
+    ) -> pd.DataFrame:
+        """Summarise the stored runs, oldest first.
+
+        Parameters
+        ----------
+        settings : sequence of str, optional
+            Settings to show as columns; ``"a.b"`` reads ``settings["a"]["b"]``.
+        statistics : sequence of str, optional
+            Solver statistics to show as columns (dotted keys as for ``settings``).
+        kind : str or None, optional
+            Only runs of this kind.
+
+        Returns
+        -------
+        pandas.DataFrame
+            Columns ``run_id, created, kind``, then the requested settings and statistics
+            (missing where a run lacks one), ``num_parameters`` and ``max_rel_error``, the
+            largest ``|identified - known| / |known|`` over parameters with both values
+            (NaN when there is none).
+        """
+        query = select(schema.runs).order_by(schema.runs.c.created, schema.runs.c.run_id)
+        if kind is not None:
+            query = query.where(schema.runs.c.kind == kind)
+        with self._engine.connect() as connection:
+            runs = connection.execute(query).all()
+            parameter_rows = connection.execute(
+                select(
+                    schema.parameters.c.run_id,
+                    schema.parameters.c.known,
+                    schema.parameters.c.identified,
+                )
+            ).all()
+        counts: dict[str, int] = {}
+        errors: dict[str, float] = {}
+        for row in parameter_rows:
+            counts[row.run_id] = counts.get(row.run_id, 0) + 1
+            if row.known is not None and row.identified is not None and row.known != 0:
+                error = abs(row.identified - row.known) / abs(row.known)
+                errors[row.run_id] = max(errors.get(row.run_id, 0.0), error)
+        columns = ["run_id", "created", "kind", *settings, *statistics]
+        columns += ["num_parameters", "max_rel_error"]
+        records = []
+        for run in runs:
+            run_settings = json.loads(run.settings)
+            run_statistics = json.loads(run.statistics)
+            records.append(
+                [run.run_id, utc(run.created), run.kind]
+                + [_dotted(run_settings, key) for key in settings]
+                + [_dotted(run_statistics, key) for key in statistics]
+                + [counts.get(run.run_id, 0), errors.get(run.run_id, float("nan"))]
+            )
+        return pd.DataFrame(records, columns=pd.Index(columns, dtype=object))
+
+    def __len__(self) -> int:
+        with self._engine.connect() as connection:
+            return connection.execute(select(func.count()).select_from(schema.runs)).scalar_one()
+
+    # ----------------------------------------------------------------------------- export
+
+    def export(
+        self, run_id: str, directory: str | Path, format: str = "csv"
+    ) -> builtins.list[Path]:
+        """Write a run to files.
+
+        Parameters
+        ----------
+        run_id : str
+            Full id or unique prefix.
+        directory : str or Path
+            Target directory (created if missing). Existing files of the same names are
+            replaced.
+        format : {"csv", "npz"}, optional
+            ``"csv"``: one ``<array>.csv`` per array (0-, 1- or 2-D), ``parameters.csv`` and
+            ``metadata.json``. ``"npz"``: ``<run_id>.npz`` with all arrays and
+            ``<run_id>.json`` with metadata and parameters.
+
+        Returns
+        -------
+        list of Path
+            The files written.
+
+        Raises
+        ------
+        ExportError
+            If ``format`` is unknown, an array cannot be written as CSV, or ``directory``
+            is not a directory. No file is written or changed then.
+        RunNotFoundError
+            If no run or more than one run matches.
+        """
+        return export_record(self.get(run_id), directory, format)
+
+    @staticmethod
+    def export_formats() -> tuple[str, ...]:
+        """Return the names accepted by :meth:`export`'s ``format``."""
+        return tuple(EXPORTERS)
+
+
+def _dotted(document: Any, key: str) -> Any:
+    value = document
+    for part in key.split("."):
+        if not isinstance(value, dict) or part not in value:
+            return None
+        value = value[part]
+    return value

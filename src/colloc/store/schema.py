@@ -1,0 +1,75 @@
+"""Tables of the results database.
+
+One row per run in ``colloc_runs``; its parameter table and its arrays live in child tables
+keyed by ``run_id``. JSON documents are kept as text (canonical JSON written by
+:mod:`colloc.store.ids`) rather than a backend JSON type, so every SQLAlchemy backend stores
+them the same way, and arrays are ``.npy`` bytes (never pickles).
+"""
+
+from __future__ import annotations
+
+from sqlalchemy import (
+    Column,
+    DateTime,
+    Double,
+    ForeignKey,
+    Integer,
+    LargeBinary,
+    MetaData,
+    String,
+    Table,
+    Text,
+)
+
+#: Bumped whenever a table changes in a way an older database cannot be read with.
+SCHEMA_VERSION = 1
+
+metadata = MetaData()
+
+schema_info = Table(
+    "colloc_schema",
+    metadata,
+    Column("version", Integer, primary_key=True, autoincrement=False),
+)
+
+runs = Table(
+    "colloc_runs",
+    metadata,
+    Column("run_id", String(128), primary_key=True),
+    Column("created", DateTime(timezone=True), nullable=False, index=True),
+    Column("kind", String(64), nullable=False, index=True),
+    Column("settings", Text, nullable=False),
+    Column("versions", Text, nullable=False),
+    Column("statistics", Text, nullable=False),
+    Column("ipopt_log", Text, nullable=False),
+)
+
+parameters = Table(
+    "colloc_parameters",
+    metadata,
+    Column(
+        "run_id",
+        String(128),
+        ForeignKey("colloc_runs.run_id", ondelete="CASCADE"),
+        primary_key=True,
+    ),
+    Column("position", Integer, primary_key=True, autoincrement=False),
+    Column("name", String(256), nullable=False),
+    Column("known", Double, nullable=True),
+    Column("identified", Double, nullable=True),
+    Column("std_error", Double, nullable=True),
+)
+
+arrays = Table(
+    "colloc_arrays",
+    metadata,
+    Column(
+        "run_id",
+        String(128),
+        ForeignKey("colloc_runs.run_id", ondelete="CASCADE"),
+        primary_key=True,
+    ),
+    Column("position", Integer, primary_key=True, autoincrement=False),
+    Column("name", String(256), nullable=False),
+    Column("data", LargeBinary, nullable=False),
+)

@@ -1,0 +1,316 @@
+"""RunStore: round trips, atomic writes, id lookup and error paths."""
+
+from __future__ import annotations
+
+import sqlite3
+from datetime import UTC, datetime, timedelta, timezone
+
+import numpy as np
+import pandas as pd
+import pytest
+from sqlalchemy import false
+
+import colloc.store.queries as queries_module
+import colloc.store.runs as runs_module
+from colloc.store import (
+    DuplicateRunError,
+    ParameterRow,
+    RecordError,
+    RunNotFoundError,
+    RunRecord,
+    RunStore,
+    StoreURLError,
+)
+
+
+def make_record(run_id: str = "run-a", seed: int = 0, **changes) -> RunRecord:
+    rng = np.random.default_rng(seed)
+    fields = {
+        "run_id": run_id,
+        "kind": "pendulum",
+        "settings": {"num_links": 1, "scheme": "midpoint", "grid": {"h": 0.01, "N": 6000}},
+        "versions": {"python": "3.11.7", "numpy": "2.4.6"},
+        "statistics": {"iterations": 4, "success": True, "objective": 3.49e-3},
+        "ipopt_log": "EXIT: Optimal Solution Found.\n",
+        "parameters": [
+            ParameterRow("k_00", -4.71764346, -4.70001, 0.0123),
+            ParameterRow("k_01", 19.67083668, 19.9, None),
+            ParameterRow("m_0", None, 1.5, 0.2),
+        ],
+        "arrays": {
+            "times": np.linspace(0.0, 1.0, 11),
+            "measured": rng.normal(size=(11, 2)),
+            "force": np.asfortranarray(rng.normal(size=(11, 3))).astype(np.float32),
+            "counts": np.arange(7, dtype=np.int16),
+            "mask": rng.normal(size=4) > 0,
+            "scalar": np.array(2.5),
+            "big_endian": np.arange(5, dtype=">f8") / 3,
+        },
+        "created": datetime(2014, 8, 15, 9, 44, 0, 123456, tzinfo=timezone(timedelta(hours=-7))),
+    }
+    fields.update(changes)
+    return RunRecord(**fields)
+
+
+def assert_same_record(actual: RunRecord, expected: RunRecord) -> None:
+    assert actual.run_id == expected.run_id
+    assert actual.kind == expected.kind
+    assert actual.settings == expected.settings
+    assert actual.versions == expected.versions
+    assert actual.statistics == expected.statistics
+    assert actual.ipopt_log == expected.ipopt_log
+    assert actual.parameters == expected.parameters
+    assert list(actual.arrays) == list(expected.arrays)
+    for name, array in expected.arrays.items():
+        assert actual.arrays[name].dtype == array.dtype, name
+        assert actual.arrays[name].shape == array.shape, name
+        assert np.array_equal(actual.arrays[name], array), name
+    assert actual.created == expected.created
+
+
+@pytest.fixture
+def db_path(tmp_path):
+    return tmp_path / "runs.db"
+
+
+@pytest.fixture
+def store(db_path):
+    with RunStore(f"sqlite:///{db_path}") as opened:
+        yield opened
+
+
+def row_counts(db_path, run_id: str) -> tuple[int, int, int]:
+    with sqlite3.connect(db_path) as connection:
+        return tuple(
+            connection.execute(
+                f"SELECT COUNT(*) FROM {table} WHERE run_id = ?", (run_id,)
+            ).fetchone()[0]
+            for table in ("colloc_runs", "colloc_parameters", "colloc_arrays")
+        )
+
+
+def test_round_trip_is_exact(store):
+    record = make_record()
+    store.add(record)
+    loaded = store.get("run-a")
+    assert_same_record(loaded, record)
+    # The same instant, expressed in UTC: 09:44 at UTC-7 is 16:44 UTC.
+    assert loaded.created.tzinfo is UTC
+    assert loaded.created.hour == 16
+
+
+def test_round_trip_survives_reopening_the_file(db_path):
+    record = make_record()
+    with RunStore(f"sqlite:///{db_path}") as first:
+        first.add(record)
+    with RunStore(f"sqlite:///{db_path}") as second:
+        assert_same_record(second.get("run-a"), record)
+
+
+def test_missing_created_is_set_to_now(store):
+    before = datetime.now(UTC)
+    store.add(make_record(created=None))
+    after = datetime.now(UTC)
+    assert before <= store.get("run-a").created <= after
+
+
+def test_nan_parameter_values_read_back_as_missing(store):
+    store.add(make_record(parameters=[ParameterRow("k", float("nan"), 1.0, np.nan)]))
+    assert store.get("run-a").parameters == [ParameterRow("k", None, 1.0, None)]
+    frame = store.get("run-a").parameters_frame()
+    assert np.isnan(frame.loc[0, "known"]) and frame.loc[0, "identified"] == 1.0
+
+
+def test_failure_while_writing_arrays_leaves_no_trace(store, db_path, monkeypatch):
+    earlier = make_record("run-a", seed=1)
+    store.add(earlier)
+    calls = []
+    original = queries_module.encode_array
+
+    def failing_encode(array):
+        calls.append(array)
+        if len(calls) == 3:
+            raise RuntimeError("disk on fire")
+        return original(array)
+
+    monkeypatch.setattr(queries_module, "encode_array", failing_encode)
+    with pytest.raises(RuntimeError, match="disk on fire"):
+        store.add(make_record("run-b", seed=2))
+    assert len(calls) == 3  # the failure really happened part-way through the arrays
+    assert row_counts(db_path, "run-b") == (0, 0, 0)
+    assert row_counts(db_path, "run-a") == (1, 3, 7)
+    assert list(store.list()["run_id"]) == ["run-a"]
+    assert_same_record(store.get("run-a"), earlier)
+
+
+def test_failed_replace_keeps_the_old_run(store, db_path, monkeypatch):
+    old = make_record("run-a", seed=1)
+    store.add(old)
+    new = make_record("run-a", seed=2, kind="gait")
+
+    def failing_encode(array):
+        raise RuntimeError("no space left")
+
+    with monkeypatch.context() as patch:
+        patch.setattr(queries_module, "encode_array", failing_encode)
+        with pytest.raises(RuntimeError, match="no space left"):
+            store.add(new, replace=True)
+    assert_same_record(store.get("run-a"), old)
+    store.add(new, replace=True)
+    assert_same_record(store.get("run-a"), new)
+    assert row_counts(db_path, "run-a") == (1, 3, 7)
+
+
+def test_duplicate_id_is_refused(store):
+    store.add(make_record())
+    with pytest.raises(DuplicateRunError, match="'run-a' is already stored; pass replace=True"):
+        store.add(make_record(seed=5))
+    assert_same_record(store.get("run-a"), make_record())
+
+
+def test_prefix_lookup(store):
+    for run_id in ("abc1", "abc2", "abd", "a_x", "xyz", "xyzw"):
+        store.add(make_record(run_id))
+    assert store.get("abd").run_id == "abd"
+    assert store.get("abc1").run_id == "abc1"
+    assert store.resolve("ab" + "d") == "abd"
+    # "_" and "%" are SQL wildcards; a prefix must match them literally.
+    assert store.get("a_").run_id == "a_x"
+    # An exact id wins over being a prefix of a longer id.
+    assert store.get("xyz").run_id == "xyz"
+    with pytest.raises(RunNotFoundError, match="prefix 'ab' is ambiguous, it matches abc1, abc2"):
+        store.get("ab")
+    with pytest.raises(RunNotFoundError, match="no stored run has an id starting with 'q'"):
+        store.get("q")
+    with pytest.raises(RunNotFoundError, match="expected a non-empty id or id prefix"):
+        store.get("")
+
+
+def test_delete(store, db_path):
+    store.add(make_record("abc"))
+    store.add(make_record("xyz"))
+    assert store.delete("ab") == "abc"
+    assert row_counts(db_path, "abc") == (0, 0, 0)
+    assert list(store.list()["run_id"]) == ["xyz"]
+    assert len(store) == 1
+    with pytest.raises(RunNotFoundError, match="no stored run"):
+        store.delete("abc")
+
+
+def test_list_summarises_settings_and_metrics(store):
+    first = make_record("one", created=datetime(2020, 1, 1, tzinfo=UTC))
+    second = make_record(
+        "two",
+        created=datetime(2021, 1, 1, tzinfo=UTC),
+        settings={"num_links": 4, "grid": {"h": 0.005}},
+        statistics={"iterations": 197},
+        parameters=[ParameterRow("k", 2.0, 2.5), ParameterRow("j", -4.0, -3.0)],
+    )
+    store.add(second)
+    store.add(first)
+    table = store.list(settings=("num_links", "scheme", "grid.h"), statistics=("iterations",))
+    assert list(table.columns) == [
+        "run_id",
+        "created",
+        "kind",
+        "num_links",
+        "scheme",
+        "grid.h",
+        "iterations",
+        "num_parameters",
+        "max_rel_error",
+    ]
+    assert list(table["run_id"]) == ["one", "two"]  # oldest first
+    assert list(table["num_links"]) == [1, 4]
+    assert table.loc[0, "scheme"] == "midpoint" and pd.isna(table.loc[1, "scheme"])
+    assert list(table["grid.h"]) == [0.01, 0.005]
+    assert list(table["num_parameters"]) == [3, 2]
+    # By hand: run one, |-4.70001 + 4.71764346| / 4.71764346 and |19.9 - 19.67...| / 19.67...
+    expected_one = max(
+        abs(-4.70001 + 4.71764346) / 4.71764346, abs(19.9 - 19.67083668) / 19.67083668
+    )
+    assert table.loc[0, "max_rel_error"] == pytest.approx(expected_one, rel=1e-12)
+    assert table.loc[1, "max_rel_error"] == pytest.approx(0.25, rel=1e-12)
+    assert list(store.list(kind="gait")["run_id"]) == []
+
+
+def test_invalid_record_lists_every_problem(store):
+    record = make_record(
+        run_id="",
+        settings={"bad": object(), 3: "int key"},
+        parameters=[ParameterRow("k"), ParameterRow("k")],
+        arrays={"metadata": np.zeros(2), "../escape": np.zeros(1), "obj": np.array([None])},
+    )
+    with pytest.raises(RecordError, match="7 problem") as caught:
+        store.add(record)
+    message = str(caught.value)
+    for fragment in (
+        "run_id: expected a non-empty str",
+        "settings['bad']: expected JSON data",
+        "settings: keys must be strings, found 3",
+        "parameters[1].name: 'k' appears more than once",
+        "'metadata' is reserved",
+        "name '../escape' must match",
+        "arrays['obj']: dtype object holds Python objects",
+    ):
+        assert fragment in message
+    assert len(store) == 0
+
+
+def test_add_refuses_a_non_record(store):
+    with pytest.raises(TypeError, match="record: expected a RunRecord, found dict"):
+        store.add({"run_id": "x"})
+
+
+@pytest.mark.parametrize(
+    ("url", "message"),
+    [
+        ("not a url", "url: expected a SQLAlchemy database URL .* found 'not a url'"),
+        ("nosuchdb://host/x", "url: expected a SQLAlchemy database URL .* found 'nosuchdb"),
+        ("sqlite:////no/such/directory/runs.db", "url: could not open or create the database"),
+    ],
+)
+def test_bad_url(url, message):
+    with pytest.raises(StoreURLError, match=message):
+        RunStore(url)
+
+
+def test_bad_url_type():
+    with pytest.raises(StoreURLError, match="url: expected a str, found int"):
+        RunStore(5)
+
+
+def test_newer_schema_is_refused(db_path):
+    RunStore(f"sqlite:///{db_path}").close()
+    with sqlite3.connect(db_path) as connection:
+        connection.execute("UPDATE colloc_schema SET version = 99")
+    with pytest.raises(StoreURLError, match=r"schema version \[99\], this colloc reads version 1"):
+        RunStore(f"sqlite:///{db_path}")
+
+
+def test_concurrent_insert_of_the_same_id_is_a_duplicate(store, monkeypatch):
+    """Another process stores the id between the existence check and the insert."""
+    store.add(make_record())
+    real_select = runs_module.select
+
+    def select_missing_everything(*columns):
+        return real_select(*columns).where(false())
+
+    monkeypatch.setattr(runs_module, "select", select_missing_everything)
+    with pytest.raises(DuplicateRunError, match="'run-a' is already stored"):
+        store.add(make_record(seed=9))
+    monkeypatch.undo()
+    assert_same_record(store.get("run-a"), make_record())
+
+
+def test_summary_describes_the_run(store):
+    store.add(make_record())
+    text = store.get("run-a").summary()
+    assert text.splitlines()[0] == "run run-a"
+    assert "created:    2014-08-15T16:44:00.123456+00:00" in text
+    assert '"scheme": "midpoint"' in text
+    rows = {line.split()[0]: line.split()[1:] for line in text.splitlines() if "k_0" in line}
+    assert [float(v) for v in rows["k_00"]] == pytest.approx([-4.71764346, -4.70001, 0.0123], 1e-6)
+    assert rows["k_01"][2] == "NaN"
+    assert "  measured: shape (11, 2), dtype float64" in text
+    assert text.endswith("ipopt log:  1 lines")
