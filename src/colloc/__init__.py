@@ -2,13 +2,23 @@
 
 from colloc import transcription
 from colloc.control import StateFeedback
+from colloc.control.lqr import LQRResult, lqr
 from colloc.model import Model, ModelError, ProblemDefinitionError
+from colloc.model.linearize import linearize
+from colloc.model.state_space import StateSpace
 from colloc.nlp import IntegralCost, Problem, Solution, TerminalCost, Tracking
+from colloc.nlp.uncertainty import ParameterUncertainty, parameter_uncertainty
 
 __version__ = "0.1.0"
 
 __all__ = [
     "IntegralCost",
+    "LQRResult",
+    "ParameterUncertainty",
+    "StateSpace",
+    "linearize",
+    "lqr",
+    "parameter_uncertainty",
     "Model",
     "ModelError",
     "Problem",

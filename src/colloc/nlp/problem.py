@@ -210,6 +210,51 @@ class Problem:
             objective = Placement(templates["objective"], node_idx_p.T, obj_data.T)
         return AssembledNLP(lay.num_variables, placements, objective)
 
+    def replace_data(
+        self,
+        objective: ObjectiveTerm | Sequence[ObjectiveTerm] | None = None,
+        known_trajectories: Mapping[sm.Basic, Any] | None = None,
+    ) -> None:
+        """Swap in new measurements or known trajectories without rebuilding.
+
+        The new objective terms must have the same structure (the same outputs tracked);
+        only their data change, which the built functions take as inputs.
+
+        Raises
+        ------
+        ProblemDefinitionError
+            When the new data do not fit the built problem.
+        """
+        problems: list[str] = []
+        N = self.grid.num_nodes
+        if known_trajectories is not None:
+            new = check_trajectories(self.model, known_trajectories, N, problems)
+            if set(new) != set(self.known_trajectories) and not problems:
+                problems.append(
+                    "known_trajectories: expected the same inputs as the built problem "
+                    f"{[name_of(r) for r in self.known_trajectories]}, found {[name_of(r) for r in new]}"
+                )
+        terms = self._node_terms
+        if objective is not None:
+            terms = []
+            for i, term in enumerate(check_objective(objective, problems)):
+                try:
+                    terms.append(term.node_term(self.model, self.grid.times, i))
+                except ValueError as exc:
+                    problems.append(str(exc))
+            old = [(t.expr, t.data_symbols) for t in self._node_terms]
+            if not problems and [(t.expr, t.data_symbols) for t in terms] != old:
+                problems.append(
+                    "objective: the new terms differ in structure from the built problem's; "
+                    "build a new Problem instead"
+                )
+        raise_if_any(problems, ProblemDefinitionError)
+        if known_trajectories is not None:
+            self.known_trajectories = new
+        self._node_terms = terms
+        self.layout.blocks.clear()
+        self.nlp = self._assemble(self._templates, terms, self._ic_locs)
+
     # ---------------------------------------------------------------- bounds and guesses
     def variable_bounds(self) -> tuple[np.ndarray, np.ndarray]:
         """Lower and upper bounds of the free vector (``±1e20`` where unbounded)."""

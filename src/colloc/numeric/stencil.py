@@ -61,10 +61,12 @@ class StencilFunctions:
         hess = ca.tril(ca.hessian(ca.dot(mu, g), w)[0])
         jr, jc = jac.sparsity().get_triplet()
         hr, hc = hess.sparsity().get_triplet()
+        # Common-subexpression elimination roughly halves the instructions of the
+        # derivative functions of Kane-form equations (measured on the 4-link pendulum).
         return cls(
-            ca.Function(f"{name}_g", [w, d], [g]),
-            ca.Function(f"{name}_jac", [w, d], [_nonzeros(jac)]),
-            ca.Function(f"{name}_hess", [w, d, mu], [_nonzeros(hess)]),
+            ca.Function(f"{name}_g", [w, d], [ca.cse(g)]),
+            ca.Function(f"{name}_jac", [w, d], [ca.cse(_nonzeros(jac))]),
+            ca.Function(f"{name}_hess", [w, d, mu], [ca.cse(_nonzeros(hess))]),
             np.asarray(jr, dtype=np.int64),
             np.asarray(jc, dtype=np.int64),
             np.asarray(hr, dtype=np.int64),

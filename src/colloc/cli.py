@@ -1,0 +1,258 @@
+"""The ``colloc`` command: the pendulum study and the results database."""
+
+from __future__ import annotations
+
+import argparse
+import sys
+import time
+from collections.abc import Sequence
+from pathlib import Path
+
+STEPS = (
+    "derive",
+    "control design",
+    "simulate",
+    "build",
+    "solve",
+    "check",
+    "store",
+    "plot",
+    "animate",
+)
+
+
+def _positive_int(text: str) -> int:
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected an integer, found {text!r}") from None
+    return value
+
+
+def _number(text: str) -> float:
+    try:
+        return float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a number, found {text!r}") from None
+
+
+def build_parser() -> argparse.ArgumentParser:
+    """The argument parser of the ``colloc`` command."""
+    from colloc.identify.guesses import GAIN_GUESSES
+    from colloc.identify.pendulum import SCHEMES, PendulumSettings
+    from colloc.store import DEFAULT_URL
+
+    defaults = PendulumSettings()
+    parser = argparse.ArgumentParser(prog="colloc", description=__doc__)
+    sub = parser.add_subparsers(dest="command", required=True)
+
+    p = sub.add_parser(
+        "pendulum",
+        help="identify the LQR gains of an n-link pendulum on a cart (the seed's study)",
+        description="Run N-link system identification: derive, design LQR, simulate, add "
+        "noise, and recover the gains by direct collocation with IPOPT.",
+    )
+    p.add_argument(
+        "-n",
+        "--numlinks",
+        type=_positive_int,
+        default=defaults.num_links,
+        help="number of links in the pendulum (default %(default)s)",
+    )
+    p.add_argument(
+        "-d",
+        "--duration",
+        type=_number,
+        default=defaults.duration,
+        help="duration of the simulation in seconds (default %(default)s)",
+    )
+    p.add_argument(
+        "-s",
+        "--samplerate",
+        type=_number,
+        default=defaults.sample_rate,
+        help="sample rate of the data and the discretization, Hz (default %(default)s)",
+    )
+    p.add_argument(
+        "-i",
+        "--initialconditions",
+        default=defaults.initial_guess,
+        help=f"initial guess of the gains: {', '.join(GAIN_GUESSES)} (default %(default)s)",
+    )
+    p.add_argument("-r", "--sensornoise", action="store_true", help="add noise to the sensor data")
+    p.add_argument(
+        "-a", "--animate", action="store_true", help="save an animation of the identified motion"
+    )
+    p.add_argument("-p", "--plot", action="store_true", help="save result plots (PNG and SVG)")
+    p.add_argument(
+        "--scheme",
+        default=defaults.scheme,
+        help=f"collocation scheme: {', '.join(SCHEMES)} (default %(default)s)",
+    )
+    p.add_argument(
+        "--hessian", default=defaults.hessian, help="exact or limited-memory (default %(default)s)"
+    )
+    p.add_argument(
+        "--seed",
+        type=_positive_int,
+        default=defaults.seed,
+        help="random seed (default %(default)s)",
+    )
+    p.add_argument(
+        "--amplitude",
+        type=_number,
+        default=defaults.force_amplitude,
+        help="amplitude of each sine of the cart force, N (default %(default)s)",
+    )
+    p.add_argument(
+        "--noise-std",
+        type=_number,
+        default=defaults.noise_std_deg,
+        help="angle noise standard deviation, degrees (default %(default)s)",
+    )
+    p.add_argument(
+        "--check-true-gains",
+        action="store_true",
+        help="also solve with the gains fixed at the truth and report that objective",
+    )
+    p.add_argument("--db", default=DEFAULT_URL, help="results database URL (default %(default)s)")
+    p.add_argument("--no-store", action="store_true", help="do not store the run in the database")
+    p.add_argument(
+        "--out", type=Path, default=Path("results"), help="directory for plots and animation"
+    )
+    p.add_argument("--json", type=Path, default=None, help="write a machine-readable summary here")
+
+    r = sub.add_parser("runs", help="list, show, export or delete stored runs")
+    r.add_argument("--db", default=DEFAULT_URL, help="results database URL (default %(default)s)")
+    rs = r.add_subparsers(dest="runs_command", required=True)
+    lst = rs.add_parser("list", help="list stored runs")
+    lst.add_argument("--kind", default=None)
+    show = rs.add_parser("show", help="show one run (an id or a unique prefix)")
+    show.add_argument("run_id")
+    exp = rs.add_parser("export", help="export a run's arrays and parameters")
+    exp.add_argument("run_id")
+    exp.add_argument("directory", type=Path)
+    exp.add_argument("--format", default="csv", help="csv or npz (default %(default)s)")
+    dele = rs.add_parser("delete", help="delete a run")
+    dele.add_argument("run_id")
+    return parser
+
+
+def _pendulum(args: argparse.Namespace) -> int:
+    from colloc.identify.pendulum import PendulumSettings, run_pendulum
+    from colloc.identify.pendulum_outputs import (
+        pendulum_record,
+        pendulum_run_id,
+        pendulum_summary,
+        save_pendulum_animation,
+        save_pendulum_plots,
+        write_json_atomic,
+    )
+    from colloc.store import RunStore
+
+    settings = PendulumSettings(
+        num_links=args.numlinks,
+        duration=args.duration,
+        sample_rate=args.samplerate,
+        initial_guess=args.initialconditions,
+        sensor_noise=args.sensornoise,
+        noise_std_deg=args.noise_std,
+        force_amplitude=args.amplitude,
+        scheme=args.scheme,
+        hessian=args.hessian,
+        seed=args.seed,
+        check_true_gains=args.check_true_gains,
+    )
+    problems = settings.problems()
+    if problems:
+        for line in problems:
+            print(f"colloc pendulum: error: {line}", file=sys.stderr)
+        return 2
+    # Open the database before any work so a bad URL fails fast.
+    store = None if args.no_store else RunStore(args.db)
+    start = time.perf_counter()
+
+    def progress(step: str, detail: str) -> None:
+        print(f"[{time.perf_counter() - start:7.2f} s] {step:<15} {detail}", flush=True)
+
+    run = run_pendulum(settings, progress=progress)
+    run_id = pendulum_run_id(run)
+    stats = run.solution.stats
+    print(
+        f"\nIPOPT: {stats['message']} after {stats['iterations']} iterations, "
+        f"objective {stats['objective']:.6g}"
+    )
+    if run.objective_at_true_gains is not None:
+        print(f"objective with the true gains: {run.objective_at_true_gains:.6g}")
+    print(f"\n{'gain':<8} {'known':>12} {'identified':>12} {'std error':>10} {'initial':>12}")
+    for name, k, i, s, g in zip(
+        run.gain_names,
+        run.known_gains,
+        run.identified_gains,
+        run.standard_errors,
+        run.initial_gains,
+        strict=True,
+    ):
+        print(f"{name:<8} {k:12.5f} {i:12.5f} {s:10.5f} {g:12.5f}")
+    print(f"max relative gain error: {run.max_rel_gain_error:.3%}")
+    for note in run.notes:
+        print(f"note: {note}")
+    if store is not None:
+        progress("store", f"run {run_id[:12]} -> {args.db}")
+        store.add(pendulum_record(run, run_id), replace=True)
+    if args.plot:
+        progress("plot", f"figures -> {args.out}")
+        for path in save_pendulum_plots(run, args.out):
+            print(f"  {path}")
+    if args.animate:
+        progress("animate", f"animation -> {args.out}")
+        print(f"  {save_pendulum_animation(run, args.out / 'pendulum.gif')}")
+    total = time.perf_counter() - start
+    times = ", ".join(f"{k} {v:.2f} s" for k, v in run.timings.items())
+    print(f"times: {times}; with storing and figures {total:.2f} s")
+    if args.json is not None:
+        write_json_atomic(pendulum_summary(run, run_id), args.json)
+        print(f"summary -> {args.json}")
+    return 0 if stats["success"] else 1
+
+
+def _runs(args: argparse.Namespace) -> int:
+    from colloc.store import RunStore
+
+    store = RunStore(args.db)
+    if args.runs_command == "list":
+        frame = store.list(kind=args.kind)
+        print(
+            "no runs stored"
+            if frame.empty
+            else frame.dropna(axis=1, how="all").to_string(index=False)
+        )
+    elif args.runs_command == "show":
+        print(store.get(args.run_id).summary())
+    elif args.runs_command == "export":
+        for path in store.export(args.run_id, args.directory, format=args.format):
+            print(path)
+    elif args.runs_command == "delete":
+        print(f"deleted {store.delete(args.run_id)}")
+    return 0
+
+
+COMMANDS = {"pendulum": _pendulum, "runs": _runs}
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Entry point of the ``colloc`` command; returns the exit status."""
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    try:
+        return COMMANDS[args.command](args)
+    except (ValueError, TypeError, LookupError, OSError) as exc:
+        print(f"colloc {args.command}: error: {exc}", file=sys.stderr)
+        return 2
+    except KeyboardInterrupt:
+        print("interrupted; nothing half-written was kept", file=sys.stderr)
+        return 130
+
+
+if __name__ == "__main__":
+    sys.exit(main())

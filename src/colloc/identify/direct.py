@@ -1,0 +1,142 @@
+"""Direct identification: parameters that enter the equations linearly, by least squares.
+
+With measured states and their derivatives the residual ``F(x', x, r, p) = F0 + A theta``
+is linear in the unknowns ``theta`` (feedback gains always are), so ``theta`` follows from
+one linear least-squares fit over every sample. It is biased by noise in the regressors,
+but it is cheap and close, which makes it the starting point that lets many-link
+collocation problems converge.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+
+import numpy as np
+import sympy as sm
+from scipy.signal import savgol_filter
+
+from colloc.model.model import Model
+from colloc.model.symbols import name_of
+
+
+def direct_estimate(
+    model: Model,
+    unknown: Sequence[sm.Symbol],
+    times: np.ndarray,
+    states: np.ndarray,
+    state_derivatives: np.ndarray,
+    known_inputs: Mapping[sm.Basic, np.ndarray] | None = None,
+    known_parameters: Mapping[sm.Symbol, float] | None = None,
+) -> dict[sm.Symbol, float]:
+    """Least-squares estimate of parameters that enter ``model.residual`` linearly.
+
+    Parameters
+    ----------
+    model : Model
+    unknown : sequence of sympy.Symbol
+        The parameters to estimate; the residual must be affine in them.
+    times : ndarray, shape (N,)
+    states, state_derivatives : ndarray, shape (N, n)
+        Estimates of ``x`` and ``x'`` (e.g. smoothed measurements).
+    known_inputs : mapping, optional
+        Input symbol -> values at ``times`` (every input of the model).
+    known_parameters : mapping, optional
+        Values of every other parameter.
+
+    Returns
+    -------
+    dict
+        Symbol -> estimate.
+
+    Raises
+    ------
+    ValueError
+        When the residual is not affine in the unknowns, or data are missing or misshapen.
+    """
+    known_inputs = dict(known_inputs or {})
+    known_parameters = dict(known_parameters or {})
+    N, n = len(times), model.num_states
+    problems = []
+    for label, arr in (("states", states), ("state_derivatives", state_derivatives)):
+        if np.shape(arr) != (N, n):
+            problems.append(f"{label}: expected shape ({N}, {n}), found {np.shape(arr)}")
+    missing_r = [name_of(r) for r in model.inputs if r not in known_inputs]
+    if missing_r:
+        problems.append(f"known_inputs: no values for inputs {missing_r}")
+    missing_p = [
+        name_of(p) for p in model.parameters if p not in known_parameters and p not in unknown
+    ]
+    if missing_p:
+        problems.append(f"known_parameters: no values for {missing_p}")
+    theta = list(unknown)
+    F = model.residual.xreplace({p: sm.Float(v) for p, v in known_parameters.items()})
+    A = F.jacobian(theta)
+    nonlinear = sorted({name_of(s) for s in A.free_symbols & set(theta)})
+    if nonlinear:
+        problems.append(f"unknown: the residual is not affine in {nonlinear}")
+    if problems:
+        raise ValueError("direct_estimate: " + "; ".join(problems))
+    F0 = F.xreplace(dict.fromkeys(theta, sm.Integer(0)))
+    args = list(model.state_derivatives) + list(model.states) + list(model.inputs) + [model.t]
+    dummies = sm.symbols(f"_a0:{len(args)}")
+    swap = dict(zip(args, dummies, strict=True))
+    fA = sm.lambdify(dummies, A.xreplace(swap), modules="numpy", cse=True)
+    f0 = sm.lambdify(dummies, F0.xreplace(swap), modules="numpy", cse=True)
+    values = (
+        [state_derivatives[:, j] for j in range(n)]
+        + [states[:, j] for j in range(n)]
+        + [np.asarray(known_inputs[r], float) for r in model.inputs]
+        + [np.asarray(times, float)]
+    )
+    rows_A = _stack(fA(*values), N, (F.shape[0], len(theta)))
+    rows_0 = _stack(f0(*values), N, (F.shape[0], 1))[..., 0]
+    design = rows_A.reshape(-1, len(theta))
+    target = -rows_0.reshape(-1)
+    used = np.any(design != 0.0, axis=1)
+    solution, *_ = np.linalg.lstsq(design[used], target[used], rcond=None)
+    return dict(zip(theta, map(float, solution), strict=True))
+
+
+def _stack(value: object, N: int, shape: tuple[int, int]) -> np.ndarray:
+    # lambdify returns nested lists mixing arrays and scalars; broadcast each entry to N.
+    out = np.empty((N, *shape))
+    rows = np.asarray(value, dtype=object).reshape(shape)
+    for i in range(shape[0]):
+        for j in range(shape[1]):
+            out[:, i, j] = np.broadcast_to(np.asarray(rows[i, j], dtype=float), (N,))
+    return out
+
+
+def smooth_with_derivatives(
+    times: np.ndarray, values: np.ndarray, window: float, order: int = 3
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Savitzky-Golay smoothing of uniformly sampled data with its first two derivatives.
+
+    Parameters
+    ----------
+    times : ndarray, shape (N,)
+        Uniform sample times.
+    values : ndarray, shape (N,) or (N, k)
+    window : float
+        Window length in seconds (rounded to an odd number of samples).
+    order : int
+        Polynomial order.
+
+    Returns
+    -------
+    value, first derivative, second derivative : ndarray
+    """
+    h = float(np.mean(np.diff(times)))
+    if not np.allclose(np.diff(times), h, rtol=1e-6, atol=1e-12):
+        raise ValueError("times: expected uniform sampling for Savitzky-Golay smoothing")
+    samples = max(order + 2, int(round(window / h)) | 1)
+    if samples > len(times):
+        raise ValueError(
+            f"window: {window} s spans {samples} samples, more than the {len(times)} available"
+        )
+    kw = {"window_length": samples, "polyorder": order, "axis": 0, "delta": h}
+    return (
+        savgol_filter(values, deriv=0, **kw),
+        savgol_filter(values, deriv=1, **kw),
+        savgol_filter(values, deriv=2, **kw),
+    )

@@ -1,0 +1,330 @@
+"""The seed's study: identify the LQR gains of an n-link pendulum on a cart from noisy motion.
+
+Steps: derive the plant (Kane), design LQR about upright, simulate the closed loop under a
+sum-of-sines cart force, add sensor noise, then recover the gains by direct collocation.
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable
+from dataclasses import asdict, dataclass, field
+from typing import Any
+
+import numpy as np
+import sympy as sm
+
+from colloc.control.lqr import lqr
+from colloc.control.state_feedback import StateFeedback
+from colloc.identify.direct import direct_estimate, smooth_with_derivatives
+from colloc.identify.guesses import GAIN_GUESSES
+from colloc.model.linearize import linearize
+from colloc.model.symbols import name_of
+from colloc.models import pendulum_cart
+from colloc.nlp.objective import Tracking
+from colloc.nlp.problem import Problem
+from colloc.nlp.solution import Solution
+from colloc.nlp.uncertainty import ParameterUncertainty, parameter_uncertainty
+from colloc.simulate import ImplicitODE, SumOfSines, add_sensor_noise
+from colloc.transcription import BackwardEuler, HermiteSimpson, Midpoint, Scheme, Trapezoidal
+
+#: Command-line names of the schemes.
+SCHEMES: dict[str, type[Scheme]] = {
+    "midpoint": Midpoint,
+    "backward-euler": BackwardEuler,
+    "trapezoidal": Trapezoidal,
+    "hermite-simpson": HermiteSimpson,
+}
+
+Progress = Callable[[str, str], None]
+
+
+@dataclass(frozen=True)
+class PendulumSettings:
+    """Everything that determines a pendulum identification run.
+
+    Attributes
+    ----------
+    num_links : int
+    duration : float
+        Seconds of simulated data.
+    sample_rate : float
+        Hz; the collocation grid is the sample grid.
+    initial_guess : str
+        One of :data:`colloc.identify.guesses.GAIN_GUESSES`.
+    sensor_noise : bool
+    noise_std_deg : float
+        Standard deviation of the angle noise in degrees.
+    cart_noise_std : float
+        Standard deviation of the cart-position noise in metres (the arc length of
+        ``noise_std_deg`` on a 1 m link by default).
+    force_amplitude : float
+        Amplitude of each of the 12 sines of the cart force, N.
+    scheme : str
+        A key of :data:`SCHEMES`.
+    hessian : str
+        "exact" or "limited-memory".
+    seed : int
+    smoothing_window : float
+        Seconds; Savitzky-Golay window for the state guess and direct identification.
+    check_true_gains : bool
+        Also solve with the gains fixed at the truth, to compare objectives.
+    """
+
+    num_links: int = 1
+    duration: float = 60.0
+    sample_rate: float = 100.0
+    initial_guess: str = "close"
+    sensor_noise: bool = False
+    noise_std_deg: float = 0.25
+    cart_noise_std: float = float(np.deg2rad(0.25))
+    force_amplitude: float = 10.0
+    scheme: str = "midpoint"
+    hessian: str = "exact"
+    seed: int = 0
+    smoothing_window: float = 0.15
+    check_true_gains: bool = False
+
+    @property
+    def num_nodes(self) -> int:
+        """Samples in the record (also the collocation nodes)."""
+        return int(np.floor(self.duration * self.sample_rate + 1e-9)) + 1
+
+    def problems(self) -> list[str]:
+        """Every problem with these settings (empty when they are usable)."""
+        out = []
+        if (
+            isinstance(self.num_links, bool)
+            or not isinstance(self.num_links, int)
+            or self.num_links < 1
+        ):
+            out.append(f"num_links (-n): expected an integer >= 1, found {self.num_links!r}")
+        if not self.duration > 0:
+            out.append(
+                f"duration (-d): expected a positive number of seconds, found {self.duration!r}"
+            )
+        if not self.sample_rate > 0:
+            out.append(
+                f"sample_rate (-s): expected a positive rate in Hz, found {self.sample_rate!r}"
+            )
+        elif self.duration > 0 and self.num_nodes < 3:
+            out.append(
+                f"duration (-d) x sample_rate (-s): gives {self.num_nodes} node(s); "
+                "expected at least 3"
+            )
+        if self.initial_guess not in GAIN_GUESSES:
+            out.append(
+                f"initial_guess (-i): expected one of {sorted(GAIN_GUESSES)}, "
+                f"found {self.initial_guess!r}"
+            )
+        if self.scheme not in SCHEMES:
+            out.append(f"scheme: expected one of {sorted(SCHEMES)}, found {self.scheme!r}")
+        if self.hessian not in ("exact", "limited-memory"):
+            out.append(f"hessian: expected 'exact' or 'limited-memory', found {self.hessian!r}")
+        for name in ("noise_std_deg", "cart_noise_std", "force_amplitude", "smoothing_window"):
+            value = getattr(self, name)
+            if not (isinstance(value, int | float) and np.isfinite(value) and value >= 0):
+                out.append(f"{name}: expected a finite number >= 0, found {value!r}")
+        return out
+
+    def validate(self) -> None:
+        """Raise ``ValueError`` listing every problem (before any work starts)."""
+        found = self.problems()
+        if found:
+            raise ValueError("invalid pendulum settings:\n" + "\n".join(f"  - {p}" for p in found))
+
+    def to_dict(self) -> dict[str, Any]:
+        """Plain settings for records and run ids."""
+        return asdict(self)
+
+
+@dataclass
+class PendulumRun:
+    """Everything a pendulum run produced."""
+
+    settings: PendulumSettings
+    gain_symbols: list[sm.Symbol]
+    known_gains: np.ndarray
+    initial_gains: np.ndarray
+    identified_gains: np.ndarray
+    standard_errors: np.ndarray
+    times: np.ndarray
+    force: np.ndarray
+    true_states: np.ndarray
+    measurements: np.ndarray
+    identified_states: np.ndarray
+    defects: np.ndarray
+    solution: Solution
+    problem: Problem
+    uncertainty: ParameterUncertainty | None
+    timings: dict[str, float]
+    lengths: np.ndarray
+    objective_at_true_gains: float | None = None
+    notes: list[str] = field(default_factory=list)
+
+    @property
+    def gain_names(self) -> list[str]:
+        """``k_i_j`` names in row-major order."""
+        return [name_of(k) for k in self.gain_symbols]
+
+    @property
+    def max_rel_gain_error(self) -> float:
+        """``max |identified - known| / |known|``."""
+        return float(
+            np.max(np.abs(self.identified_gains - self.known_gains) / np.abs(self.known_gains))
+        )
+
+    @property
+    def max_gain_error_in_se(self) -> float:
+        """``max |identified - known| / standard error``."""
+        return float(
+            np.max(np.abs(self.identified_gains - self.known_gains) / self.standard_errors)
+        )
+
+
+def run_pendulum(
+    settings: PendulumSettings, progress: Progress | None = None, cache: Any = True
+) -> PendulumRun:
+    """Run the whole study (derive, control design, simulate, build, solve, uncertainty).
+
+    Parameters
+    ----------
+    settings : PendulumSettings
+    progress : callable, optional
+        ``progress(step, detail)`` as each step starts or ends.
+    cache : bool or path
+        Build cache for :class:`colloc.Problem`.
+
+    Returns
+    -------
+    PendulumRun
+    """
+    settings.validate()
+    say = progress or (lambda step, detail: None)
+    timings: dict[str, float] = {}
+    t_all = time.perf_counter()
+    phase_rng, noise_rng, guess_rng = (
+        np.random.default_rng(s) for s in np.random.SeedSequence(settings.seed).spawn(3)
+    )
+    n = settings.num_links
+
+    say("derive", f"{n}-link pendulum on a cart by Kane's method")
+    t0 = time.perf_counter()
+    plant = pendulum_cart.derive(n)
+    model = plant.to_model()
+    constants = plant.default_constants()
+    timings["derive"] = time.perf_counter() - t0
+
+    say("control design", "LQR about upright (Q = I, R = I)")
+    t0 = time.perf_counter()
+    op = dict.fromkeys(model.states, 0.0)
+    ss = linearize(
+        model, op, inputs=plant.torques, constants=constants, equilibrium=True, numeric=True
+    )
+    num_states = model.num_states
+    K = np.asarray(lqr(ss.A, ss.B, np.eye(num_states), np.eye(n)).K, dtype=float)
+    feedback = StateFeedback.symbolic(n, num_states)
+    closed = model.close_loop(feedback)
+    gain_symbols = list(feedback.K)
+    known = K.ravel()
+    timings["derive"] += time.perf_counter() - t0
+
+    say("simulate", f"{settings.duration:g} s at {settings.sample_rate:g} Hz")
+    t0 = time.perf_counter()
+    force_fn = SumOfSines.from_seed(settings.force_amplitude, int(phase_rng.integers(2**31)))
+    times = np.arange(settings.num_nodes) / settings.sample_rate
+    ode = ImplicitODE.from_model(
+        closed,
+        {**constants, **dict(zip(gain_symbols, known, strict=True))},
+        {plant.force: force_fn},
+    )
+    true_states = ode.simulate(np.zeros(num_states), times)
+    force = force_fn(times)
+    coords = true_states[:, : n + 1]
+    if settings.sensor_noise:
+        std = [settings.cart_noise_std] + [np.deg2rad(settings.noise_std_deg)] * n
+        measured = add_sensor_noise(coords, np.asarray(std), int(noise_rng.integers(2**31)))
+    else:
+        measured = coords.copy()
+    timings["simulate"] = time.perf_counter() - t0
+
+    say("build", f"{settings.scheme} collocation, N = {settings.num_nodes}")
+    t0 = time.perf_counter()
+    tracking = Tracking(dict(zip(plant.coordinates, measured.T, strict=True)))
+    problem = Problem(
+        closed,
+        times,
+        scheme=SCHEMES[settings.scheme](),
+        known_trajectories={plant.force: force},
+        known_parameters=constants,
+        objective=tracking,
+        cache=cache,
+    )
+    timings["build"] = time.perf_counter() - t0
+    q_s, qd_s, qdd_s = smooth_with_derivatives(times, measured, settings.smoothing_window)
+    x_guess = np.hstack([q_s, qd_s])
+    xd_guess = np.hstack([qd_s, qdd_s])
+    direct = lambda: np.array(
+        list(
+            direct_estimate(  # noqa: E731
+                closed, gain_symbols, times, x_guess, xd_guess, {plant.force: force}, constants
+            ).values()
+        )
+    )
+    initial = GAIN_GUESSES[settings.initial_guess](known, guess_rng, direct)
+    z0 = problem.initial_guess(
+        dict(zip(closed.states, x_guess.T, strict=True)),
+        dict(zip(gain_symbols, initial, strict=True)),
+    )
+
+    say("solve", f"IPOPT, {settings.hessian} Hessian, {len(gain_symbols)} gains")
+    solution = problem.solve(z0, hessian=settings.hessian)
+    timings["solve"] = solution.stats["solve_time"]
+    identified = np.array([solution.parameters[k] for k in gain_symbols])
+    uncertainty = None
+    se = np.full(len(gain_symbols), np.nan)
+    notes = []
+    try:
+        uncertainty = parameter_uncertainty(problem, solution, measured.size)
+        se = np.array([uncertainty.standard_errors[k] for k in gain_symbols])
+    except ValueError as exc:
+        notes.append(f"no standard errors: {exc}")
+    identified_states = np.column_stack([solution.trajectories[x] for x in closed.states])
+    defects = problem.defects(solution.z)
+    true_objective = None
+    if settings.check_true_gains:
+        say("check", "objective with the gains fixed at the truth")
+        fixed = Problem(
+            closed,
+            times,
+            scheme=SCHEMES[settings.scheme](),
+            known_trajectories={plant.force: force},
+            known_parameters={**constants, **dict(zip(gain_symbols, known, strict=True))},
+            objective=tracking,
+            cache=cache,
+        )
+        ref = fixed.solve(fixed.initial_guess(dict(zip(closed.states, true_states.T, strict=True))))
+        true_objective = float(ref.stats["objective"])
+    timings["total"] = time.perf_counter() - t_all
+    lengths = np.array([constants[length] for length in plant.lengths()])
+    return PendulumRun(
+        settings,
+        gain_symbols,
+        known,
+        initial,
+        identified,
+        se,
+        times,
+        force,
+        true_states,
+        measured,
+        identified_states,
+        defects,
+        solution,
+        problem,
+        uncertainty,
+        timings,
+        lengths,
+        true_objective,
+        notes,
+    )
