@@ -264,13 +264,12 @@ def run_pendulum(
     q_s, qd_s, qdd_s = smooth_with_derivatives(times, measured, settings.smoothing_window)
     x_guess = np.hstack([q_s, qd_s])
     xd_guess = np.hstack([qd_s, qdd_s])
-    direct = lambda: np.array(
-        list(
-            direct_estimate(  # noqa: E731
-                closed, gain_symbols, times, x_guess, xd_guess, {plant.force: force}, constants
-            ).values()
+    def direct() -> np.ndarray:
+        estimate = direct_estimate(
+            closed, gain_symbols, times, x_guess, xd_guess, {plant.force: force}, constants
         )
-    )
+        return np.array([estimate[k] for k in gain_symbols])
+
     initial = GAIN_GUESSES[settings.initial_guess](known, guess_rng, direct)
     z0 = problem.initial_guess(
         dict(zip(closed.states, x_guess.T, strict=True)),
