@@ -80,8 +80,8 @@ def direct_estimate(
     args = list(model.state_derivatives) + list(model.states) + list(model.inputs) + [model.t]
     dummies = sm.symbols(f"_a0:{len(args)}")
     swap = dict(zip(args, dummies, strict=True))
-    fA = sm.lambdify(dummies, A.xreplace(swap), modules="numpy", cse=True)
-    f0 = sm.lambdify(dummies, F0.xreplace(swap), modules="numpy", cse=True)
+    fA = sm.lambdify(dummies, list(A.xreplace(swap)), modules="numpy", cse=True)
+    f0 = sm.lambdify(dummies, list(F0.xreplace(swap)), modules="numpy", cse=True)
     values = (
         [state_derivatives[:, j] for j in range(n)]
         + [states[:, j] for j in range(n)]
@@ -98,13 +98,11 @@ def direct_estimate(
 
 
 def _stack(value: object, N: int, shape: tuple[int, int]) -> np.ndarray:
-    # lambdify returns nested lists mixing arrays and scalars; broadcast each entry to N.
-    out = np.empty((N, *shape))
-    rows = np.asarray(value, dtype=object).reshape(shape)
-    for i in range(shape[0]):
-        for j in range(shape[1]):
-            out[:, i, j] = np.broadcast_to(np.asarray(rows[i, j], dtype=float), (N,))
-    return out
+    # The flat list mixes arrays and constant scalars; broadcast each entry to N samples.
+    out = np.empty((N, shape[0] * shape[1]))
+    for e, entry in enumerate(value):  # type: ignore[attr-defined]
+        out[:, e] = np.broadcast_to(np.asarray(entry, dtype=float), (N,))
+    return out.reshape(N, *shape)
 
 
 def smooth_with_derivatives(

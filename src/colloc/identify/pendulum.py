@@ -225,6 +225,7 @@ def run_pendulum(
     K = np.asarray(lqr(ss.A, ss.B, np.eye(num_states), np.eye(n)).K, dtype=float)
     feedback = StateFeedback.symbolic(n, num_states)
     closed = model.close_loop(feedback)
+    assert feedback.K is not None  # sized by close_loop
     gain_symbols = list(feedback.K)
     known = K.ravel()
     timings["derive"] += time.perf_counter() - t0
@@ -264,6 +265,7 @@ def run_pendulum(
     q_s, qd_s, qdd_s = smooth_with_derivatives(times, measured, settings.smoothing_window)
     x_guess = np.hstack([q_s, qd_s])
     xd_guess = np.hstack([qd_s, qdd_s])
+
     def direct() -> np.ndarray:
         estimate = direct_estimate(
             closed, gain_symbols, times, x_guess, xd_guess, {plant.force: force}, constants

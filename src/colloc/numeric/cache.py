@@ -30,7 +30,7 @@ def default_cache_dir() -> Path:
 def cache_key(parts: Iterable[str]) -> str:
     """A stable hash of the text ``parts`` (plus the cache format and CasADi version)."""
     h = hashlib.sha256()
-    for part in (f"format={CACHE_FORMAT}", f"casadi={ca.__version__}", *parts):
+    for part in (f"format={CACHE_FORMAT}", f"casadi={ca.CasadiMeta.version()}", *parts):
         h.update(part.encode())
         h.update(b"\0")
     return h.hexdigest()

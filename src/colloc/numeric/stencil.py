@@ -172,8 +172,8 @@ class _Bound:
                     f"values, found {arr.size}"
                 )
             keep.append(arr)
-            self.buffer.set_arg(i, memoryview(arr))
+            self.buffer.set_arg(i, memoryview(arr))  # type: ignore[call-arg,arg-type]
         out = np.empty(self.out_shape)
-        self.buffer.set_res(0, memoryview(out))
+        self.buffer.set_res(0, memoryview(out))  # type: ignore[call-arg,arg-type]
         self.evaluate()
         return out

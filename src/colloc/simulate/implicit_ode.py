@@ -188,7 +188,7 @@ class ImplicitODE:
     def rhs(self, t: float, x: ArrayLike) -> Array:
         """``x' = M^-1 f`` at one point (solved numerically), in SciPy's ``fun(t, y)`` order."""
         m, f = self._evaluate(np.asarray(x, dtype=float), t)
-        return np.linalg.solve(m, f)
+        return np.asarray(np.linalg.solve(m, f), dtype=float)
 
     def simulate(
         self,

@@ -24,4 +24,5 @@ class Trapezoidal(Scheme):
 
     def node_defects(self, F: Residual, nv: NodeView) -> ca.SX:
         """The model residual at the node."""
+        assert nv.v is not None
         return F(nv.v, nv.x, nv.r, nv.t)
