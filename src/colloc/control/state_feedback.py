@@ -133,7 +133,12 @@ def _as_expr(value: Any, label: str) -> sm.Expr:
 
 
 def _as_matrix(K: Any) -> sm.Matrix:
-    arr = np.asarray(K.tolist() if isinstance(K, sm.MatrixBase) else K, dtype=object)
+    if isinstance(K, sm.MatrixBase):
+        if K.rows == 0 or K.cols == 0:
+            raise ValueError(f"K: expected a non-empty 2-D gain matrix, found shape {K.shape}")
+        arr = np.asarray(K.tolist(), dtype=object)
+    else:
+        arr = np.asarray(K, dtype=object)
     if arr.ndim != 2:
         raise ValueError(f"K: expected a 2-D gain matrix, found {arr.ndim} dimension(s)")
     return sm.Matrix([[_as_expr(v, "K") for v in row] for row in arr])

@@ -20,6 +20,7 @@ from colloc.nlp.solution import Solution
 from colloc.nlp.spec import (
     Bounds,
     check_bounds,
+    check_node_terms,
     check_objective,
     check_parameters,
     check_trajectories,
@@ -88,9 +89,14 @@ class Problem:
             raise TypeError(
                 f"scheme: expected a scheme object such as Midpoint(), found {scheme!r}"
             )
-        self.model, self.scheme, self.grid = model, scheme, TimeGrid(np.asarray(times, float))
-        N = self.grid.num_nodes
         problems: list[str] = []
+        try:
+            grid = TimeGrid(np.asarray(times, dtype=float))
+        except (ValueError, TypeError) as exc:
+            problems.append(str(exc))
+            grid = TimeGrid(np.arange(2.0))  # placeholder so every other check still runs
+        self.model, self.scheme, self.grid = model, scheme, grid
+        N = self.grid.num_nodes
         self.known_trajectories = check_trajectories(model, known_trajectories or {}, N, problems)
         self.known_parameters, unknown = check_parameters(
             model, known_parameters or {}, unknown_parameters, problems
@@ -119,6 +125,7 @@ class Problem:
                 node_terms.append(term.node_term(model, self.grid.times, i))
             except ValueError as exc:
                 problems.append(str(exc))
+        check_node_terms(node_terms, model, scheme.node_derivatives, problems)
         raise_if_any(problems, ProblemDefinitionError)
 
         self.layout = self._make_layout()
@@ -301,10 +308,8 @@ class Problem:
         if self.scheme.node_derivatives:
             nf = len(self.partition.free_inputs)
             X[:, n + nf : 2 * n + nf] = np.gradient(states, self.grid.times, axis=0)
-        if lay.num_interval_variables == 2 * n:
-            M = lay.interval_matrix(z)
-            M[:, :n] = self.grid.midpoint_values(states)
-            M[:, n:] = np.diff(states, axis=0) / self.grid.steps[:, None]
+        if lay.num_interval_variables:
+            lay.interval_matrix(z)[:] = self.scheme.interval_guess(states, self.grid)
         return z
 
     # ---------------------------------------------------------------- solve

@@ -98,7 +98,16 @@ def check_objective(objective: Any, problems: list[str]) -> list[ObjectiveTerm]:
     """One term or a sequence of terms (``None``: a feasibility problem)."""
     if objective is None:
         return []
-    terms = [objective] if isinstance(objective, ObjectiveTerm) else list(objective)
+    if isinstance(objective, ObjectiveTerm):
+        terms = [objective]
+    elif isinstance(objective, list | tuple):
+        terms = list(objective)
+    else:
+        problems.append(
+            "objective: expected Tracking, IntegralCost or TerminalCost terms (or a list of "
+            f"them), found {type(objective).__name__}"
+        )
+        return []
     bad = [type(t).__name__ for t in terms if not isinstance(t, ObjectiveTerm)]
     if bad:
         problems.append(
@@ -124,7 +133,9 @@ def check_bounds(
         except (TypeError, ValueError):
             problems.append(f"bounds[{name_of(s)}]: expected a pair (lower, upper), found {pair!r}")
             continue
-        if not lo <= hi:
+        if np.isnan(lo) or np.isnan(hi):
+            problems.append(f"bounds[{name_of(s)}]: expected numbers, found NaN in ({lo}, {hi})")
+        elif not lo <= hi:
             problems.append(f"bounds[{name_of(s)}]: lower {lo} is above upper {hi}")
         out[s] = (lo, hi)
     return out
@@ -187,3 +198,24 @@ def parse_instance_constraints(
             )
         out.append(e.xreplace(holders))
     return out, list(holders.values()), locations
+
+
+def check_node_terms(
+    terms: Sequence[Any], model: Model, derivatives_allowed: bool, problems: list[str]
+) -> None:
+    """Objective expressions may use states, inputs, parameters, t and their own data only."""
+    allowed_funcs = set(model.states) | set(model.inputs)
+    for i, term in enumerate(terms):
+        funcs = {a for a in term.expr.atoms(AppliedUndef)} - allowed_funcs
+        syms = term.expr.free_symbols - set(model.parameters) - set(term.data_symbols) - {model.t}
+        if funcs or syms:
+            names = sorted(name_of(f) for f in funcs) + sorted(str(s) for s in syms)
+            problems.append(
+                f"objective term {i}: {names} are not states, inputs or parameters of the model"
+            )
+        ders = term.expr.atoms(sm.Derivative)
+        if ders and not derivatives_allowed:
+            problems.append(
+                f"objective term {i}: uses state derivatives {sorted(map(str, ders))}, which this "
+                "scheme has no variables for; use Trapezoidal or HermiteSimpson, or add a state"
+            )

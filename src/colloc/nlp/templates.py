@@ -46,8 +46,8 @@ class _Symbols:
         self.n_node = n + len(part.free_inputs) + (n if scheme.node_derivatives else 0)
         self.pu = ca.SX.sym(f"{prefix}p", len(part.unknown_parameters))
         self.pk = ca.SX.sym(f"{prefix}pk", len(part.known_parameters))
-        by_symbol = dict(zip(part.unknown_parameters, ca.vertsplit(self.pu), strict=True))
-        by_symbol.update(zip(part.known_parameters, ca.vertsplit(self.pk), strict=True))
+        by_symbol = dict(zip(part.unknown_parameters, _entries(self.pu), strict=True))
+        by_symbol.update(zip(part.known_parameters, _entries(self.pk), strict=True))
         self.p = ca.vertcat(*(by_symbol[p] for p in part.model.parameters))
 
     def node(self, z: ca.SX, r_known: ca.SX, t: ca.SX) -> NodeView:
@@ -58,9 +58,14 @@ class _Symbols:
         return NodeView(x, v, self.inputs(z[n : n + nf], r_known), t)
 
     def inputs(self, r_free: ca.SX, r_known: ca.SX) -> ca.SX:
-        by_symbol = dict(zip(self.part.free_inputs, ca.vertsplit(r_free), strict=True))
-        by_symbol.update(zip(self.part.known_inputs, ca.vertsplit(r_known), strict=True))
+        by_symbol = dict(zip(self.part.free_inputs, _entries(r_free), strict=True))
+        by_symbol.update(zip(self.part.known_inputs, _entries(r_known), strict=True))
         return ca.vertcat(*(by_symbol[r] for r in self.part.model.inputs))
+
+
+def _entries(v: ca.SX) -> list[ca.SX]:
+    # vertsplit of an empty SX returns one empty piece; indexing keeps zero-length honest.
+    return [v[i] for i in range(v.numel())]
 
 
 def residual_function(model: Model) -> ca.Function:
@@ -75,10 +80,10 @@ def residual_function(model: Model) -> ca.Function:
 
 def _leaves(model: Model, xd: ca.SX, x: ca.SX, r: ca.SX, p: ca.SX, t: ca.SX) -> dict:
     leaves: dict[sm.Basic, ca.SX] = {model.t: t}
-    leaves.update(zip(model.state_derivatives, ca.vertsplit(xd), strict=True))
-    leaves.update(zip(model.states, ca.vertsplit(x), strict=True))
-    leaves.update(zip(model.inputs, ca.vertsplit(r), strict=True))
-    leaves.update(zip(model.parameters, ca.vertsplit(p), strict=True))
+    leaves.update(zip(model.state_derivatives, _entries(xd), strict=True))
+    leaves.update(zip(model.states, _entries(x), strict=True))
+    leaves.update(zip(model.inputs, _entries(r), strict=True))
+    leaves.update(zip(model.parameters, _entries(p), strict=True))
     return leaves
 
 
@@ -123,12 +128,15 @@ def objective_template(
     z = ca.SX.sym("z", s.n_node)
     rk, t = ca.SX.sym("r", len(part.known_inputs)), ca.SX.sym("t")
     nv = s.node(z, rk, t)
-    leaves = _leaves(model, ca.SX.zeros(model.num_states), nv.x, nv.r, s.p, t)
+    # Costs may use x' only where the scheme carries derivative variables at the nodes;
+    # Problem refuses such costs for other schemes, so the NaN placeholder never reaches a value.
+    xdot = nv.v if nv.v is not None else ca.SX(model.num_states, 1) * float("nan")
+    leaves = _leaves(model, xdot, nv.x, nv.r, s.p, t)
     data_syms, factors = [], []
     total = ca.SX(0)
     for term in terms:
         dsym = ca.SX.sym("d", len(term.data_symbols))
-        leaves.update(zip(term.data_symbols, ca.vertsplit(dsym), strict=True))
+        leaves.update(zip(term.data_symbols, _entries(dsym), strict=True))
         c = ca.SX.sym("c")
         (phi,) = sympy_to_casadi([term.expr], leaves)
         total = total + c * phi
@@ -149,8 +157,8 @@ def instance_template(
     """
     s = _Symbols(part, _NoScheme(), "c")
     v = ca.SX.sym("v", len(variables))
-    leaves: dict[sm.Basic, ca.SX] = dict(zip(variables, ca.vertsplit(v), strict=True))
-    leaves.update(zip(part.model.parameters, ca.vertsplit(s.p), strict=True))
+    leaves: dict[sm.Basic, ca.SX] = dict(zip(variables, _entries(v), strict=True))
+    leaves.update(zip(part.model.parameters, _entries(s.p), strict=True))
     g = ca.vertcat(*sympy_to_casadi(exprs, leaves))
     return StencilFunctions.build("instance", ca.vertcat(v, s.pu), s.pk, g)
 

@@ -66,6 +66,10 @@ class Scheme(ABC):
         """Names of the interval variables, for layouts and error messages."""
         return [f"extra{j}" for j in range(self.num_interval_variables(len(state_names)))]
 
+    def interval_guess(self, states: np.ndarray, grid: TimeGrid) -> np.ndarray:
+        """Initial values of the interval variables from node state guesses ``(N, n)``."""
+        return np.zeros((grid.num_nodes - 1, self.num_interval_variables(states.shape[1])))
+
     @abstractmethod
     def interval_defects(self, F: Residual, iv: IntervalView) -> ca.SX:
         """Defects of one interval (a column SX), zero when the scheme's relation holds."""
@@ -107,8 +111,8 @@ class TimeGrid:
         if np.any(steps <= 0):
             i = int(np.argmax(steps <= 0))
             raise ValueError(
-                f"times: expected strictly increasing values, found t[{i}]={t[i]!r} "
-                f"followed by t[{i + 1}]={t[i + 1]!r}"
+                f"times: expected strictly increasing values, found t[{i}]={float(t[i])!r} "
+                f"followed by t[{i + 1}]={float(t[i + 1])!r}"
             )
         object.__setattr__(self, "times", t)
 

@@ -3,8 +3,9 @@
 from __future__ import annotations
 
 import casadi as ca
+import numpy as np
 
-from colloc.transcription.base import IntervalView, NodeView, Residual, Scheme
+from colloc.transcription.base import IntervalView, NodeView, Residual, Scheme, TimeGrid
 
 
 class HermiteSimpson(Scheme):
@@ -24,6 +25,11 @@ class HermiteSimpson(Scheme):
     def interval_variable_names(self, state_names: list[str]) -> list[str]:
         """``x_mid`` then ``x'_mid`` for each state."""
         return [f"{s}_mid" for s in state_names] + [f"{s}'_mid" for s in state_names]
+
+    def interval_guess(self, states: np.ndarray, grid: TimeGrid) -> np.ndarray:
+        """Interpolated midpoint states and secant slopes."""
+        slopes = np.diff(states, axis=0) / grid.steps[:, None]
+        return np.hstack([grid.midpoint_values(states), slopes])
 
     def interval_defects(self, F: Residual, iv: IntervalView) -> ca.SX:
         """Hermite interpolation, Simpson quadrature and the residual at the midpoint."""
