@@ -10,6 +10,7 @@ collocation problems converge.
 from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
+from typing import Any
 
 import numpy as np
 import sympy as sm
@@ -97,10 +98,10 @@ def direct_estimate(
     return dict(zip(theta, map(float, solution), strict=True))
 
 
-def _stack(value: object, N: int, shape: tuple[int, int]) -> np.ndarray:
+def _stack(value: list[Any], N: int, shape: tuple[int, int]) -> np.ndarray:
     # The flat list mixes arrays and constant scalars; broadcast each entry to N samples.
     out = np.empty((N, shape[0] * shape[1]))
-    for e, entry in enumerate(value):  # type: ignore[attr-defined]
+    for e, entry in enumerate(value):
         out[:, e] = np.broadcast_to(np.asarray(entry, dtype=float), (N,))
     return out.reshape(N, *shape)
 
