@@ -99,15 +99,16 @@ class PendulumSettings:
             or self.num_links < 1
         ):
             out.append(f"num_links (-n): expected an integer >= 1, found {self.num_links!r}")
-        if not self.duration > 0:
+        duration_ok = _finite(self.duration) and self.duration > 0
+        if not duration_ok:
             out.append(
                 f"duration (-d): expected a positive number of seconds, found {self.duration!r}"
             )
-        if not self.sample_rate > 0:
+        if not (_finite(self.sample_rate) and self.sample_rate > 0):
             out.append(
                 f"sample_rate (-s): expected a positive rate in Hz, found {self.sample_rate!r}"
             )
-        elif self.duration > 0 and self.num_nodes < 3:
+        elif duration_ok and self.num_nodes < 3:
             out.append(
                 f"duration (-d) x sample_rate (-s): gives {self.num_nodes} node(s); "
                 "expected at least 3"
@@ -119,6 +120,8 @@ class PendulumSettings:
             )
         if self.scheme not in SCHEMES:
             out.append(f"scheme: expected one of {sorted(SCHEMES)}, found {self.scheme!r}")
+        if isinstance(self.seed, bool) or not isinstance(self.seed, int) or self.seed < 0:
+            out.append(f"seed: expected an integer >= 0, found {self.seed!r}")
         if self.hessian not in ("exact", "limited-memory"):
             out.append(f"hessian: expected 'exact' or 'limited-memory', found {self.hessian!r}")
         for name in ("noise_std_deg", "cart_noise_std", "force_amplitude", "smoothing_window"):
@@ -136,6 +139,10 @@ class PendulumSettings:
     def to_dict(self) -> dict[str, Any]:
         """Plain settings for records and run ids."""
         return asdict(self)
+
+
+def _finite(value: object) -> bool:
+    return isinstance(value, int | float) and bool(np.isfinite(value))
 
 
 @dataclass

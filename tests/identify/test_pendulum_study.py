@@ -1,0 +1,193 @@
+"""The seed's study end to end: ``run_pendulum`` on the 1-link pendulum on a cart.
+
+References: the seed's LQR gains, the truth used to simulate, the standard errors, the
+noise level that was asked for, and the orders of the schemes (backward Euler's bias halves
+with the step, midpoint's quarters).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from colloc.identify import PendulumSettings, run_pendulum
+from colloc.identify.pendulum_outputs import pendulum_run_id
+
+#: The gains printed by the seed's 1-link study (LQR with Q = I, R = I).
+SEED_GAINS = np.array([-4.71764346, 19.67083668, -3.69402157, 5.57114809])
+
+NOISY = {"num_links": 1, "duration": 20.0, "sample_rate": 50.0, "sensor_noise": True}
+
+
+@pytest.fixture(scope="module")
+def runs():
+    """One noisy run per initial guess (built without the on-disk cache)."""
+    return {
+        guess: run_pendulum(
+            PendulumSettings(**NOISY, initial_guess=guess, check_true_gains=guess == "close"),
+            cache=False,
+        )
+        for guess in ("close", "direct")
+    }
+
+
+def test_known_gains_are_the_seeds(runs):
+    np.testing.assert_allclose(runs["close"].known_gains, SEED_GAINS, rtol=1e-6)
+    assert runs["close"].gain_names == ["k_0_0", "k_0_1", "k_0_2", "k_0_3"]
+
+
+@pytest.mark.parametrize("guess", ["close", "direct"])
+def test_noisy_identification_recovers_the_gains(runs, guess):
+    run = runs[guess]
+    assert run.solution.success, run.solution.stats["message"]
+    assert run.notes == []
+    assert run.max_rel_gain_error < 0.01
+    assert np.all(np.isfinite(run.standard_errors)) and np.all(run.standard_errors > 0)
+    assert np.all(np.abs(run.identified_gains - SEED_GAINS) < 4 * run.standard_errors)
+    # The identified motion is feasible: the defects vanish at the solution.
+    assert np.max(np.abs(run.defects)) < 1e-6
+    # The fit tracks the measurements to within the noise level.
+    residual = run.identified_states[:, :2] - run.measurements
+    np.testing.assert_allclose(np.std(residual, axis=0), np.deg2rad(0.25), rtol=0.15)
+
+
+def test_both_guesses_reach_the_same_optimum(runs):
+    np.testing.assert_allclose(
+        runs["close"].identified_gains, runs["direct"].identified_gains, rtol=1e-6
+    )
+
+
+def test_initial_guesses_follow_their_definitions(runs):
+    known = runs["close"].known_gains
+    # close = K + 0.5 |K| N(0, 1): |N(0, 1)| = rel / 0.5 is a few per cent to a few units.
+    normal = np.abs(runs["close"].initial_gains - known) / (0.5 * np.abs(known))
+    assert np.max(normal) > 0.1 and np.all(normal < 4.0)
+    # direct = least squares on smoothed data: within the smoother's few-per-cent bias.
+    rel = np.abs(runs["direct"].initial_gains - known) / np.abs(known)
+    assert np.max(rel) < 0.06
+
+
+def test_sensor_noise_has_the_requested_spread(runs):
+    run = runs["close"]
+    noise = run.measurements - run.true_states[:, :2]
+    expected = [run.settings.cart_noise_std, np.deg2rad(run.settings.noise_std_deg)]
+    np.testing.assert_allclose(np.std(noise, axis=0), expected, rtol=0.1)
+    assert np.abs(np.mean(noise, axis=0)).max() < 4 * max(expected) / np.sqrt(len(noise))
+
+
+def test_true_gains_give_a_higher_objective_than_the_optimum(runs):
+    run = runs["close"]
+    assert run.objective_at_true_gains is not None
+    assert run.objective_at_true_gains >= run.solution.stats["objective"]
+    # ... but only by about what 4 extra fitted parameters buy: chi^2 with 4 dof.
+    sigma2 = run.uncertainty.noise_variance
+    assert run.objective_at_true_gains - run.solution.stats["objective"] < 20 * sigma2
+
+
+def test_same_seed_gives_same_run_and_id(runs):
+    first = runs["close"]
+    again = run_pendulum(first.settings, cache=False)
+    assert pendulum_run_id(again) == pendulum_run_id(first)
+    np.testing.assert_array_equal(again.measurements, first.measurements)
+    np.testing.assert_array_equal(again.identified_gains, first.identified_gains)
+    other = run_pendulum(PendulumSettings(**NOISY, initial_guess="close", seed=1), cache=False)
+    assert pendulum_run_id(other) != pendulum_run_id(first)
+    assert not np.array_equal(other.measurements, first.measurements)
+
+
+def test_backward_euler_is_biased_where_midpoint_is_not():
+    # Same settings and seed, so the same data; only the scheme differs.
+    def run(scheme: str):
+        settings = PendulumSettings(**NOISY, initial_guess="known", scheme=scheme)
+        return run_pendulum(settings, cache=False)
+
+    midpoint, euler = run("midpoint"), run("backward-euler")
+    np.testing.assert_array_equal(midpoint.measurements, euler.measurements)
+    assert euler.max_rel_gain_error > 10 * midpoint.max_rel_gain_error
+    assert euler.max_rel_gain_error > 0.02  # biased by several per cent (the seed's point)
+    assert euler.max_gain_error_in_se > 4  # ... which the standard errors do not explain
+
+
+def test_discretisation_bias_follows_the_order_of_each_scheme():
+    # Noise-free data, so the only error left is the scheme's: halving h halves backward
+    # Euler's (first order) and quarters midpoint's (second order).
+    def error(scheme: str, rate: float) -> float:
+        settings = PendulumSettings(
+            duration=10.0, sample_rate=rate, initial_guess="known", scheme=scheme
+        )
+        return run_pendulum(settings, cache=False).max_rel_gain_error
+
+    euler = error("backward-euler", 50.0) / error("backward-euler", 100.0)
+    midpoint = error("midpoint", 50.0) / error("midpoint", 100.0)
+    assert 1.6 < euler < 2.6
+    assert 3.0 < midpoint < 6.0
+
+
+@pytest.mark.parametrize("scheme", ["midpoint", "trapezoidal", "hermite-simpson"])
+def test_every_second_order_scheme_recovers_the_gains(scheme):
+    run = run_pendulum(PendulumSettings(**NOISY, scheme=scheme), cache=False)
+    assert run.solution.success
+    assert run.max_rel_gain_error < 0.01
+    assert np.all(np.abs(run.identified_gains - SEED_GAINS) < 4 * run.standard_errors)
+
+
+def test_limited_memory_hessian_reaches_the_exact_hessians_optimum(runs):
+    # A second optimiser path (L-BFGS) to the same minimiser of the same NLP.
+    settings = PendulumSettings(**NOISY, hessian="limited-memory")
+    run = run_pendulum(settings, cache=False)
+    assert run.solution.success
+    exact = runs["close"]
+    np.testing.assert_allclose(run.identified_gains, exact.identified_gains, rtol=1e-6)
+    assert run.solution.stats["iterations"] > exact.solution.stats["iterations"]
+
+
+# ----------------------------------------------------------------------------- settings
+
+
+@pytest.mark.parametrize(
+    ("changes", "message"),
+    [
+        ({"num_links": 0}, r"num_links \(-n\): expected an integer >= 1, found 0"),
+        ({"num_links": 1.5}, r"num_links \(-n\): expected an integer >= 1, found 1.5"),
+        ({"duration": -1.0}, r"duration \(-d\): expected a positive number .*found -1.0"),
+        ({"sample_rate": 0.0}, r"sample_rate \(-s\): expected a positive rate .*found 0.0"),
+        (
+            {"duration": 1.0, "sample_rate": 0.01},
+            r"gives 1 node\(s\); expected at least 3",
+        ),
+        ({"initial_guess": "bogus"}, r"initial_guess \(-i\): expected one of .*'bogus'"),
+        ({"scheme": "bogus"}, r"scheme: expected one of .*'midpoint'.*found 'bogus'"),
+        ({"hessian": "bogus"}, r"hessian: expected 'exact' or 'limited-memory'"),
+        ({"noise_std_deg": -0.1}, r"noise_std_deg: expected a finite number >= 0"),
+        # Infinite duration or rate: a settings error, not an OverflowError from num_nodes.
+        ({"duration": float("inf")}, r"duration \(-d\): expected a positive"),
+        ({"sample_rate": float("inf")}, r"sample_rate \(-s\): expected a positive"),
+        ({"duration": float("nan")}, r"duration \(-d\): expected a positive"),
+        # A negative seed must be named as the culprit (numpy's own message does not).
+        ({"seed": -1}, r"seed: expected an integer >= 0, found -1"),
+    ],
+)
+def test_bad_settings_are_rejected_before_any_work(changes, message):
+    settings = PendulumSettings(**changes)
+    with pytest.raises(ValueError, match=message):
+        run_pendulum(settings, progress=_fail_if_called)
+
+
+def test_every_bad_setting_is_reported_at_once():
+    settings = PendulumSettings(num_links=0, duration=-1.0, initial_guess="x", scheme="y")
+    problems = settings.problems()
+    assert len(problems) == 4
+    with pytest.raises(ValueError, match="invalid pendulum settings") as info:
+        settings.validate()
+    for name in ("num_links", "duration", "initial_guess", "scheme"):
+        assert name in str(info.value)
+
+
+def test_node_count_follows_duration_and_rate():
+    assert PendulumSettings(duration=20.0, sample_rate=50.0).num_nodes == 1001
+    assert PendulumSettings(duration=0.1, sample_rate=30.0).num_nodes == 4
+    assert PendulumSettings(duration=0.05, sample_rate=30.0).problems() != []
+
+
+def _fail_if_called(step: str, detail: str) -> None:
+    raise AssertionError(f"work started ({step}: {detail}) before the settings were checked")

@@ -1,0 +1,258 @@
+"""Standard errors from the KKT system (``parameter_uncertainty``) against independent references.
+
+* The spread of the identified gains over many noise realisations of the seed's 1-link
+  closed-loop study (the problem is built once; each realisation only swaps the data).
+* Gauss-Newton covariance ``sigma^2 (S^T S)^-1`` with the sensitivities ``S`` of the measured
+  outputs to the gains and the initial state taken by central differences of an ODE
+  simulation (SciPy's integrator, not the collocation problem).
+* The analytic Gauss-Newton covariance of an exponential decay.
+* Every error path.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import pytest
+import sympy as sm
+from sympy.physics.mechanics import dynamicsymbols
+
+from colloc import Model, Problem, StateFeedback, Tracking, linearize, lqr, parameter_uncertainty
+from colloc.identify import smooth_with_derivatives
+from colloc.models import pendulum_cart
+from colloc.simulate import ImplicitODE, SumOfSines
+from colloc.transcription import Midpoint
+
+DURATION = 20.0
+RATE = 50.0
+AMPLITUDE = 10.0
+SIGMA = float(
+    np.deg2rad(0.25)
+)  # rad for the angle; the same number in metres (4.4 mm) for the cart
+NUM_REALISATIONS = 40
+SPREAD_FACTOR = 1.5
+
+t = dynamicsymbols._t
+
+
+@dataclass
+class Study:
+    problem: Problem
+    closed: Model
+    coordinates: tuple
+    gains: list
+    known: np.ndarray
+    constants: dict
+    force_fn: SumOfSines
+    times: np.ndarray
+    true_states: np.ndarray
+
+    def tracking(self, measured: np.ndarray) -> Tracking:
+        return Tracking(dict(zip(self.coordinates, measured.T, strict=True)))
+
+    def noisy(self, seed: int) -> np.ndarray:
+        clean = self.true_states[:, :2]
+        return clean + SIGMA * np.random.default_rng(seed).standard_normal(clean.shape)
+
+    def solve(self, measured: np.ndarray):
+        """Swap in ``measured`` (no rebuild) and solve from the smoothed data and true gains."""
+        self.problem.replace_data(objective=self.tracking(measured))
+        q, qd, _ = smooth_with_derivatives(self.times, measured, 0.15)
+        z0 = self.problem.initial_guess(
+            dict(zip(self.closed.states, np.hstack([q, qd]).T, strict=True)),
+            dict(zip(self.gains, self.known, strict=True)),
+        )
+        solution = self.problem.solve(z0)
+        assert solution.success, solution.stats["message"]
+        return solution
+
+
+@pytest.fixture(scope="module")
+def study() -> Study:
+    plant = pendulum_cart.derive(1)
+    model = plant.to_model()
+    constants = plant.default_constants()
+    ss = linearize(
+        model,
+        dict.fromkeys(model.states, 0.0),
+        inputs=plant.torques,
+        constants=constants,
+        equilibrium=True,
+        numeric=True,
+    )
+    K = np.asarray(lqr(ss.A, ss.B, np.eye(4), np.eye(1)).K, dtype=float)
+    feedback = StateFeedback.symbolic(1, 4)
+    closed = model.close_loop(feedback)
+    gains = list(feedback.K)
+    known = K.ravel()
+    times = np.arange(int(DURATION * RATE) + 1) / RATE
+    force_fn = SumOfSines.from_seed(AMPLITUDE, 7)
+    ode = ImplicitODE.from_model(
+        closed, {**constants, **dict(zip(gains, known, strict=True))}, {plant.force: force_fn}
+    )
+    true_states = ode.simulate(np.zeros(4), times)
+    problem = Problem(
+        closed,
+        times,
+        scheme=Midpoint(),
+        known_trajectories={plant.force: force_fn(times)},
+        known_parameters=constants,
+        objective=Tracking(dict(zip(plant.coordinates, true_states[:, :2].T, strict=True))),
+        cache=False,
+    )
+    return Study(
+        problem,
+        closed,
+        plant.coordinates,
+        gains,
+        known,
+        constants,
+        force_fn,
+        times,
+        true_states,
+    )
+
+
+def test_standard_errors_match_spread_over_noise_realisations(study):
+    estimates, std_errors, variances = [], [], []
+    for seed in range(NUM_REALISATIONS):
+        measured = study.noisy(1000 + seed)
+        solution = study.solve(measured)
+        unc = parameter_uncertainty(study.problem, solution, measured.size)
+        estimates.append([solution.parameters[k] for k in study.gains])
+        std_errors.append([unc.standard_errors[k] for k in study.gains])
+        variances.append(unc.noise_variance)
+        assert unc.degrees_of_freedom == measured.size - 8  # 4 gains + 4 initial states free
+    estimates, std_errors = np.array(estimates), np.array(std_errors)
+    spread = estimates.std(axis=0, ddof=1)
+    reported = std_errors.mean(axis=0)
+    ratio = spread / reported
+    assert np.all(ratio < SPREAD_FACTOR) and np.all(ratio > 1 / SPREAD_FACTOR), ratio
+    # sigma^2 from the residuals against the noise actually drawn (chi^2 with ~2000 dof).
+    assert np.mean(variances) == pytest.approx(SIGMA**2, rel=0.05)
+    # Noise costs precision, not accuracy: the mean estimate sits on the noise-free one.
+    clean = study.solve(study.true_states[:, :2])
+    noise_free = np.array([clean.parameters[k] for k in study.gains])
+    standard_error_of_mean = spread / np.sqrt(NUM_REALISATIONS)
+    assert np.all(np.abs(estimates.mean(axis=0) - noise_free) < 4 * standard_error_of_mean)
+
+
+def test_standard_errors_match_gauss_newton_of_the_ode(study):
+    measured = study.noisy(5)
+    solution = study.solve(measured)
+    unc = parameter_uncertainty(study.problem, solution, measured.size)
+
+    def outputs(theta: np.ndarray) -> np.ndarray:
+        values = {**study.constants, **dict(zip(study.gains, theta[:4], strict=True))}
+        force = dict.fromkeys(study.closed.inputs, study.force_fn)
+        ode = ImplicitODE.from_model(study.closed, values, force)
+        return ode.simulate(theta[4:], study.times)[:, :2].ravel()
+
+    theta = np.concatenate([study.known, np.zeros(4)])
+    columns = []
+    for j in range(theta.size):
+        step = 1e-5 * max(1.0, abs(theta[j]))
+        e = np.zeros_like(theta)
+        e[j] = step
+        columns.append((outputs(theta + e) - outputs(theta - e)) / (2 * step))
+    S = np.column_stack(columns)
+    gauss_newton = SIGMA * np.sqrt(np.diag(np.linalg.inv(S.T @ S)))[:4]
+    # Rescale from the residual-based sigma to the true one so only the matrix part is compared.
+    kkt = np.array([unc.standard_errors[k] for k in study.gains])
+    kkt_known_sigma = kkt * SIGMA / np.sqrt(unc.noise_variance)
+    np.testing.assert_allclose(kkt_known_sigma, gauss_newton, rtol=0.02)
+    # The covariance is symmetric and its diagonal gives the standard errors.
+    np.testing.assert_allclose(unc.covariance, unc.covariance.T)
+    np.testing.assert_allclose(np.sqrt(np.diag(unc.covariance)), kkt)
+    assert unc.parameters == tuple(study.gains)
+
+
+def test_scalar_decay_against_analytic_gauss_newton():
+    # x' = -a x, y = x: dy/da = -t x0 exp(-a t), dy/dx0 = exp(-a t).
+    x = dynamicsymbols("x")
+    a = sm.Symbol("a")
+    model = Model.from_equations([x.diff(t) + a * x], [x], outputs=[x])
+    a_true, x0_true, sigma = 0.8, 2.0, 0.02
+    times = np.linspace(0.0, 3.0, 301)
+    clean = x0_true * np.exp(-a_true * times)
+    measured = clean + sigma * np.random.default_rng(3).standard_normal(times.size)
+    problem = Problem(model, times, objective=Tracking({x: measured}), cache=False)
+    solution = problem.solve(problem.initial_guess({x: measured}, {a: 1.0}))
+    assert solution.success
+    unc = parameter_uncertainty(problem, solution, times.size)
+    a_hat = solution.parameters[a]
+    x0_hat = solution.trajectories[x][0]
+    S = np.column_stack(
+        [-times * x0_hat * np.exp(-a_hat * times), np.exp(-a_hat * times)],
+    )
+    expected = np.sqrt(unc.noise_variance * np.linalg.inv(S.T @ S)[0, 0])
+    assert unc.standard_errors[a] == pytest.approx(expected, rel=0.02)
+
+
+# ----------------------------------------------------------------------------- error paths
+
+
+def test_no_unknown_parameters_is_an_error(study):
+    measured = study.noisy(1)
+    fixed = Problem(
+        study.closed,
+        study.times,
+        known_trajectories={r: study.force_fn(study.times) for r in study.closed.inputs},
+        known_parameters={**study.constants, **dict(zip(study.gains, study.known, strict=True))},
+        objective=study.tracking(measured),
+        cache=False,
+    )
+    guess = dict(zip(study.closed.states, study.true_states.T, strict=True))
+    solution = fixed.solve(fixed.initial_guess(guess))
+    with pytest.raises(ValueError, match="problem: has no unknown parameters"):
+        parameter_uncertainty(fixed, solution, measured.size)
+
+
+def test_too_few_measurements_is_an_error(study):
+    measured = study.noisy(2)
+    solution = study.solve(measured)
+    # 4 gains + 4 initial states are free; 8 measurements leave no residual degrees of freedom.
+    with pytest.raises(ValueError, match=r"num_measurements: expected more than the 8 .*found 8"):
+        parameter_uncertainty(study.problem, solution, 8)
+
+
+def _decays(times, rng):
+    x, v, u = dynamicsymbols("x v u")
+    mx = np.exp(-0.7 * times) + 0.01 * rng.standard_normal(times.size)
+    mv = np.exp(-times) + 0.01 * rng.standard_normal(times.size)
+    return x, v, u, mx, mv
+
+
+def test_parameter_without_effect_on_the_data_is_unidentifiable():
+    # b multiplies an input that is zero throughout, so the data say nothing about it.
+    times = np.linspace(0.0, 2.0, 41)
+    x, v, u, mx, mv = _decays(times, np.random.default_rng(0))
+    a, b, c = sm.symbols("a b c")
+    model = Model.from_equations(
+        [x.diff(t) + a * x - b * u, v.diff(t) + c * v], [x, v], known_inputs=[u], outputs=[x, v]
+    )
+    problem = Problem(
+        model,
+        times,
+        known_trajectories={u: np.zeros(times.size)},
+        objective=Tracking({x: mx, v: mv}),
+        cache=False,
+    )
+    solution = problem.solve(problem.initial_guess({x: mx, v: mv}, {a: 0.5, b: 0.0, c: 1.0}))
+    assert solution.success
+    with pytest.raises(ValueError, match="reduced Hessian .* singular.*cannot be identified"):
+        parameter_uncertainty(problem, solution, 2 * times.size)
+
+
+def test_state_not_seen_by_the_data_makes_the_kkt_matrix_singular():
+    # v is neither measured nor coupled to x, so its initial value is free and undetermined.
+    times = np.linspace(0.0, 2.0, 41)
+    x, v, _, mx, _ = _decays(times, np.random.default_rng(1))
+    a = sm.Symbol("a")
+    model = Model.from_equations([x.diff(t) + a * x, v.diff(t) + v], [x, v], outputs=[x])
+    problem = Problem(model, times, objective=Tracking({x: mx}), cache=False)
+    solution = problem.solve(problem.initial_guess({x: mx, v: 1.0}, {a: 0.5}))
+    assert solution.success
+    with pytest.raises(ValueError, match="KKT matrix at the solution is singular"):
+        parameter_uncertainty(problem, solution, times.size)
