@@ -15,8 +15,9 @@ from typing import TYPE_CHECKING, Any, Protocol, TypeAlias
 import sympy as sm
 
 from colloc.model.errors import raise_if_any
+from colloc.model.schedule import ParameterSchedule
 from colloc.model.symbols import TIME, as_tuple, name_of, sort_by_name
-from colloc.model.validation import validate_model
+from colloc.model.validation import output_problems, validate_model
 
 if TYPE_CHECKING:
     from sympy.physics.mechanics import KanesMethod, LagrangesMethod
@@ -58,6 +59,9 @@ class Model:
         Output symbol -> expression ``g(x, t)``.
     controller_parameters : tuple
         The subset of ``parameters`` introduced by :meth:`close_loop`.
+    schedules : tuple of ParameterSchedule
+        Parameters scheduled over a phase (e.g. by :class:`colloc.GainScheduled`); the
+        residual holds their slot symbols and weights, ``parameters`` their points.
     t : sympy.Symbol
         Time.
     """
@@ -71,6 +75,7 @@ class Model:
     outputs: dict[sm.Basic, sm.Expr] = field(default_factory=dict)
     controller_parameters: tuple[sm.Symbol, ...] = ()
     t: sm.Symbol = TIME
+    schedules: tuple[ParameterSchedule, ...] = ()
 
     # ------------------------------------------------------------------ derived views
     @property
@@ -303,28 +308,24 @@ class Model:
         raise_if_any(problems)
         residual = self.residual.xreplace(law)
         remaining = tuple(r for r in self.controlled_inputs if r not in law)
+        schedules = tuple(getattr(controller, "schedules", ()))
+        phases = tuple(dict.fromkeys(s.phase for s in schedules if s.phase not in self.inputs))
         new_params = sort_by_name(set(self.parameters) | set(controller.parameters))
         return replace(
             self,
             residual=residual,
             controlled_inputs=remaining,
+            known_inputs=self.known_inputs + phases,
             parameters=new_params,  # type: ignore[arg-type]
             controller_parameters=self.controller_parameters + tuple(controller.parameters),
+            schedules=self.schedules + schedules,
         )
 
     def with_outputs(self, outputs: Mapping[sm.Basic, sm.Expr] | Sequence[sm.Basic]) -> Model:
         """Return a copy with other measured outputs (validated like the constructors)."""
-        new = Model.from_equations(
-            self.residual,
-            self.states,
-            controlled_inputs=self.controlled_inputs,
-            known_inputs=self.known_inputs,
-            unknown_inputs=self.unknown_inputs,
-            outputs=outputs,
-            parameters=self.parameters,
-            t=self.t,
-        )
-        return replace(new, controller_parameters=self.controller_parameters)
+        out = dict(outputs) if isinstance(outputs, Mapping) else {y: y for y in as_tuple(outputs)}
+        raise_if_any(output_problems(out, self.states, self.t))
+        return replace(self, outputs=out)
 
     def describe(self) -> dict[str, Any]:
         """A plain summary (names only) for logs and result records."""

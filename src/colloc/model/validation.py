@@ -117,6 +117,15 @@ def validate_model(
                 f"{sorted(str(m) for m in missing)}"
             )
 
+    problems += output_problems(outputs, states, t)
+    return problems, constants
+
+
+def output_problems(
+    outputs: Mapping[sm.Basic, sm.Expr], states: tuple[sm.Basic, ...], t: sm.Symbol
+) -> list[str]:
+    """Problems with measured outputs ``y = g(x, t)``."""
+    problems: list[str] = []
     for y, g in outputs.items():
         extra = functions_of_time(g, t) - set(states) if isinstance(g, sm.Basic) else set()
         if not isinstance(g, sm.Basic):
@@ -128,4 +137,4 @@ def validate_model(
             )
         elif derivatives_in(g):
             problems.append(f"output {name_of(y)}: derivatives are not allowed in outputs")
-    return problems, constants
+    return problems

@@ -12,10 +12,11 @@ import sympy as sm
 from colloc.model.errors import ProblemDefinitionError, raise_if_any
 from colloc.model.model import Model
 from colloc.model.symbols import name_of
-from colloc.nlp.assembly import AssembledNLP, Placement
+from colloc.nlp.assembly import AssembledNLP
 from colloc.nlp.build import build_templates
-from colloc.nlp.layout import ConstraintBlock, Layout
+from colloc.nlp.layout import Layout
 from colloc.nlp.objective import ObjectiveTerm
+from colloc.nlp.placement import GridData, assemble
 from colloc.nlp.solution import Solution
 from colloc.nlp.spec import (
     Bounds,
@@ -23,10 +24,11 @@ from colloc.nlp.spec import (
     check_node_terms,
     check_objective,
     check_parameters,
+    check_schedules,
     check_trajectories,
     parse_instance_constraints,
 )
-from colloc.nlp.templates import Partition, row_names
+from colloc.nlp.templates import Partition
 from colloc.solve.ipopt import IpoptResult, solve_nlp
 from colloc.transcription.base import Scheme, TimeGrid
 from colloc.transcription.midpoint import Midpoint
@@ -126,6 +128,7 @@ class Problem:
             except ValueError as exc:
                 problems.append(str(exc))
         check_node_terms(node_terms, model, scheme.node_derivatives, problems)
+        check_schedules(model, self.known_parameters, unknown, self.known_trajectories, problems)
         raise_if_any(problems, ProblemDefinitionError)
 
         self.layout = self._make_layout()
@@ -152,70 +155,16 @@ class Problem:
         )
 
     def _assemble(self, templates: dict, node_terms: list, ic_locs: list) -> AssembledNLP:
-        lay, N = self.layout, self.grid.num_nodes
-        n_nv, n_iv = lay.num_node_variables, lay.num_interval_variables
-        params = lay.parameter_offset + np.arange(len(lay.parameter_names))
-        k_int, k_node = np.arange(N - 1), np.arange(N)
-        node_idx = n_nv * k_node[None, :] + np.arange(n_nv)[:, None]
-        int_idx = np.vstack(
-            [
-                node_idx[:, :-1],
-                node_idx[:, 1:],
-                lay.interval_offset + n_iv * k_int[None, :] + np.arange(n_iv)[:, None],
-                np.repeat(params[:, None], N - 1, axis=1),
-            ]
-        ).astype(np.int64)
-        node_idx_p = np.vstack([node_idx, np.repeat(params[:, None], N, axis=1)]).astype(np.int64)
-        R = (
-            np.column_stack([self.known_trajectories[r] for r in self.partition.known_inputs])
-            if (self.partition.known_inputs)
-            else np.zeros((N, 0))
+        return assemble(
+            self.partition,
+            self.scheme,
+            self.grid,
+            self.layout,
+            templates,
+            node_terms,
+            ic_locs,
+            GridData(self.known_trajectories, self.known_parameters),
         )
-        Rm = self.grid.midpoint_values(R) if R.shape[1] else np.zeros((N - 1, 0))
-        pk = np.array([self.known_parameters[p] for p in self.partition.known_parameters], float)
-        t, h = self.grid.times, self.grid.steps
-        int_data = np.vstack(
-            [R[:-1].T, R[1:].T, Rm.T, np.repeat(pk[:, None], N - 1, 1), t[None, :-1], h[None, :]]
-        )
-        node_data = np.vstack([R.T, np.repeat(pk[:, None], N, 1), t[None, :]])
-
-        placements = []
-        fi = templates["interval"]
-        blk = lay.add_block(
-            ConstraintBlock(
-                "interval",
-                fi.num_outputs,
-                N - 1,
-                "interval",
-                row_names(self.model, self.scheme, fi.num_outputs, "interval"),
-            )
-        )
-        placements.append(Placement(fi, int_idx.T, int_data.T, blk.offset))
-        if templates.get("node") is not None:
-            fn = templates["node"]
-            blk = lay.add_block(
-                ConstraintBlock(
-                    "node",
-                    fn.num_outputs,
-                    N,
-                    "node",
-                    row_names(self.model, self.scheme, fn.num_outputs, "node"),
-                )
-            )
-            placements.append(Placement(fn, node_idx_p.T, node_data.T, blk.offset))
-        if templates.get("instance") is not None:
-            fc = templates["instance"]
-            blk = lay.add_block(ConstraintBlock("instance", fc.num_outputs, 1, "instance"))
-            idx = np.array([k * n_nv + j for k, j in ic_locs] + list(params), np.int64)[:, None]
-            placements.append(Placement(fc, idx.T, pk[None, :], blk.offset))
-        objective = None
-        if node_terms:
-            extra = [term.data.T for term in node_terms] + [
-                term.factors[None, :] for term in node_terms
-            ]
-            obj_data = np.vstack([node_data, *extra])
-            objective = Placement(templates["objective"], node_idx_p.T, obj_data.T)
-        return AssembledNLP(lay.num_variables, placements, objective)
 
     def replace_data(
         self,
@@ -259,7 +208,6 @@ class Problem:
         if known_trajectories is not None:
             self.known_trajectories = new
         self._node_terms = terms
-        self.layout.blocks.clear()
         self.nlp = self._assemble(self._templates, terms, self._ic_locs)
 
     # ---------------------------------------------------------------- bounds and guesses

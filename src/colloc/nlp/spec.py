@@ -205,9 +205,11 @@ def check_node_terms(
 ) -> None:
     """Objective expressions may use states, inputs, parameters, t and their own data only."""
     allowed_funcs = set(model.states) | set(model.inputs)
+    scheduled = {p for s in model.schedules for p in s.parameters}
     for i, term in enumerate(terms):
         funcs = {a for a in term.expr.atoms(AppliedUndef)} - allowed_funcs
-        syms = term.expr.free_symbols - set(model.parameters) - set(term.data_symbols) - {model.t}
+        syms = term.expr.free_symbols - (set(model.parameters) - scheduled)
+        syms -= set(term.data_symbols) | {model.t}
         if funcs or syms:
             names = sorted(name_of(f) for f in funcs) + sorted(str(s) for s in syms)
             problems.append(
@@ -218,4 +220,28 @@ def check_node_terms(
             problems.append(
                 f"objective term {i}: uses state derivatives {sorted(map(str, ders))}, which this "
                 "scheme has no variables for; use Trapezoidal or HermiteSimpson, or add a state"
+            )
+
+
+def check_schedules(
+    model: Model,
+    known: Mapping[sm.Symbol, float],
+    unknown: Sequence[sm.Symbol],
+    trajectories: Mapping[sm.Basic, np.ndarray],
+    problems: list[str],
+) -> None:
+    """Schedule points are all known or all unknown; phases are non-decreasing."""
+    for sched in model.schedules:
+        n_known = sum(p in known for p in sched.parameters)
+        if 0 < n_known < len(sched.parameters):
+            problems.append(
+                f"schedule over {name_of(sched.phase)}: give every point's parameters in "
+                f"known_parameters or none of them (found {n_known} of {len(sched.parameters)})"
+            )
+        phase = trajectories.get(sched.phase)
+        if phase is not None and np.any(np.diff(phase) < 0):
+            i = int(np.argmax(np.diff(phase) < 0))
+            problems.append(
+                f"known_trajectories[{name_of(sched.phase)}]: expected the unwrapped phase "
+                f"(non-decreasing, in cycles), found a decrease after node {i}"
             )

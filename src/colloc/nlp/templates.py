@@ -18,7 +18,7 @@ from colloc.model.symbols import name_of
 from colloc.nlp.objective import NodeTerm
 from colloc.numeric.bridge import sympy_to_casadi
 from colloc.numeric.stencil import StencilFunctions
-from colloc.transcription.base import IntervalView, NodeView, Scheme
+from colloc.transcription.base import IntervalView, NodeView, Residual, Scheme
 
 
 @dataclass(frozen=True)
@@ -36,6 +36,27 @@ class Partition:
         """``n``."""
         return self.model.num_states
 
+    @property
+    def scheduled(self) -> frozenset[sm.Symbol]:
+        """Parameters that belong to a schedule (reached through slots, not directly)."""
+        return frozenset(p for s in self.model.schedules for p in s.parameters)
+
+    @property
+    def plain_unknown(self) -> tuple[sm.Symbol, ...]:
+        """Unknown parameters outside schedules."""
+        return tuple(p for p in self.unknown_parameters if p not in self.scheduled)
+
+    @property
+    def plain_known(self) -> tuple[sm.Symbol, ...]:
+        """Known parameters outside schedules."""
+        return tuple(p for p in self.known_parameters if p not in self.scheduled)
+
+    @property
+    def schedule_is_unknown(self) -> tuple[bool, ...]:
+        """Per schedule: whether its points are estimated (else they are data)."""
+        unknown = set(self.unknown_parameters)
+        return tuple(s.parameters[0] in unknown for s in self.model.schedules)
+
 
 class _Symbols:
     """SX placeholders for one stencil, and the maps that put them in model order."""
@@ -44,11 +65,30 @@ class _Symbols:
         n = part.num_states
         self.part = part
         self.n_node = n + len(part.free_inputs) + (n if scheme.node_derivatives else 0)
-        self.pu = ca.SX.sym(f"{prefix}p", len(part.unknown_parameters))
-        self.pk = ca.SX.sym(f"{prefix}pk", len(part.known_parameters))
-        by_symbol = dict(zip(part.unknown_parameters, _entries(self.pu), strict=True))
-        by_symbol.update(zip(part.known_parameters, _entries(self.pk), strict=True))
-        self.p = ca.vertcat(*(by_symbol[p] for p in part.model.parameters))
+        self.pu = ca.SX.sym(f"{prefix}p", len(part.plain_unknown))
+        self.pk = ca.SX.sym(f"{prefix}pk", len(part.plain_known))
+        by_symbol = dict(zip(part.plain_unknown, _entries(self.pu), strict=True))
+        by_symbol.update(zip(part.plain_known, _entries(self.pk), strict=True))
+        # Schedule points enter only through their slots; as plain parameters they are unused.
+        self.p = ca.vertcat(*(by_symbol.get(p, ca.SX(0)) for p in part.model.parameters))
+        free_slots, data_slots, weights, S = [], [], [], []
+        for i, (sched, unknown) in enumerate(
+            zip(part.model.schedules, part.schedule_is_unknown, strict=True)
+        ):
+            a = ca.SX.sym(f"{prefix}sa{i}", sched.size)
+            b = ca.SX.sym(f"{prefix}sb{i}", sched.size)
+            w = ca.SX.sym(f"{prefix}w{i}")
+            (free_slots if unknown else data_slots).extend([a, b])
+            weights.append(w)
+            S.extend([a, b, w])
+        self.free_slots = ca.vertcat(*free_slots) if free_slots else ca.SX(0, 1)
+        self.data_slots = ca.vertcat(*data_slots) if data_slots else ca.SX(0, 1)
+        self.weights = ca.vertcat(*weights) if weights else ca.SX(0, 1)
+        self.S = ca.vertcat(*S) if S else ca.SX(0, 1)
+
+    def F(self, F: ca.Function) -> Residual:
+        """The residual with parameters and schedule slots bound: ``F(xdot, x, r, t)``."""
+        return lambda xd, x, r, t: F(xd, x, r, self.p, t, self.S)
 
     def node(self, z: ca.SX, r_known: ca.SX, t: ca.SX) -> NodeView:
         n = self.part.num_states
@@ -69,13 +109,28 @@ def _entries(v: ca.SX) -> list[ca.SX]:
 
 
 def residual_function(model: Model) -> ca.Function:
-    """``F(xdot, x, r, p, t)`` of ``model`` as a CasADi function."""
+    """``F(xdot, x, r, p, t, S)`` of ``model`` as a CasADi function.
+
+    ``S`` stacks, per schedule, the lower slots, the upper slots and the weight.
+    """
     n, m = model.num_states, len(model.inputs)
     xd, x = ca.SX.sym("xd", n), ca.SX.sym("x", n)
     r, p, t = ca.SX.sym("r", m), ca.SX.sym("p", len(model.parameters)), ca.SX.sym("t")
     leaves = _leaves(model, xd, x, r, p, t)
+    pieces = []
+    for i, sched in enumerate(model.schedules):
+        a, b, w = (
+            ca.SX.sym(f"sa{i}", sched.size),
+            ca.SX.sym(f"sb{i}", sched.size),
+            ca.SX.sym(f"w{i}"),
+        )
+        leaves.update(zip(sched.slots_a, _entries(a), strict=True))
+        leaves.update(zip(sched.slots_b, _entries(b), strict=True))
+        leaves[sched.weight] = w
+        pieces += [a, b, w]
+    S = ca.vertcat(*pieces) if pieces else ca.SX(0, 1)
     res = sympy_to_casadi(list(model.residual), leaves)
-    return ca.Function("F", [xd, x, r, p, t], [ca.vertcat(*res)])
+    return ca.Function("F", [xd, x, r, p, t, S], [ca.vertcat(*res)])
 
 
 def _leaves(model: Model, xd: ca.SX, x: ca.SX, r: ca.SX, p: ca.SX, t: ca.SX) -> dict:
@@ -99,9 +154,9 @@ def interval_template(part: Partition, scheme: Scheme, F: ca.Function) -> Stenci
     n, nf = part.num_states, len(part.free_inputs)
     r_mid = s.inputs(0.5 * (z0[n : n + nf] + z1[n : n + nf]), rm)
     view = IntervalView(start, end, extra, r_mid, t0, h)
-    g = scheme.interval_defects(lambda xd, x, r, t: F(xd, x, r, s.p, t), view)
-    w = ca.vertcat(z0, z1, extra, s.pu)
-    d = ca.vertcat(r0, r1, rm, s.pk, t0, h)
+    g = scheme.interval_defects(s.F(F), view)
+    w = ca.vertcat(z0, z1, extra, s.pu, s.free_slots)
+    d = ca.vertcat(r0, r1, rm, s.pk, t0, h, s.data_slots, s.weights)
     return StencilFunctions.build("interval", w, d, g)
 
 
@@ -110,10 +165,11 @@ def node_template(part: Partition, scheme: Scheme, F: ca.Function) -> StencilFun
     s = _Symbols(part, scheme, "n")
     z = ca.SX.sym("z", s.n_node)
     rk, t = ca.SX.sym("r", len(part.known_inputs)), ca.SX.sym("t")
-    g = scheme.node_defects(lambda xd, x, r, tt: F(xd, x, r, s.p, tt), s.node(z, rk, t))
+    g = scheme.node_defects(s.F(F), s.node(z, rk, t))
     if g is None:
         return None
-    return StencilFunctions.build("node", ca.vertcat(z, s.pu), ca.vertcat(rk, s.pk, t), g)
+    w = ca.vertcat(z, s.pu, s.free_slots)
+    return StencilFunctions.build("node", w, ca.vertcat(rk, s.pk, t, s.data_slots, s.weights), g)
 
 
 def objective_template(

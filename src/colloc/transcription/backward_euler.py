@@ -11,6 +11,7 @@ class BackwardEuler(Scheme):
     """``F((x1 - x0)/h, x1, r1, t1) = 0`` on each interval. Order 1; robust on stiff systems."""
 
     order = 1
+    interval_evaluation = 1.0
 
     def interval_defects(self, F: Residual, iv: IntervalView) -> ca.SX:
         """Residual at the interval end with the backward difference for ``x'``."""

@@ -57,6 +57,9 @@ class Scheme(ABC):
 
     order: ClassVar[int]
     node_derivatives: ClassVar[bool] = False
+    #: Where in the interval (fraction of h) the interval defects evaluate the residual;
+    #: None when they do not evaluate it. Scheduled parameters are bracketed there.
+    interval_evaluation: ClassVar[float | None] = None
 
     def num_interval_variables(self, num_states: int) -> int:
         """Number of extra variables the scheme places inside each interval."""

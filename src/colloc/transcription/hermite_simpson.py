@@ -16,6 +16,7 @@ class HermiteSimpson(Scheme):
     """
 
     order = 4
+    interval_evaluation = 0.5
     node_derivatives = True
 
     def num_interval_variables(self, num_states: int) -> int:

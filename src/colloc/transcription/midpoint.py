@@ -11,6 +11,7 @@ class Midpoint(Scheme):
     """``F((x1 - x0)/h, (x0 + x1)/2, r_mid, t0 + h/2) = 0`` on each interval. Order 2."""
 
     order = 2
+    interval_evaluation = 0.5
 
     def interval_defects(self, F: Residual, iv: IntervalView) -> ca.SX:
         """Residual at the interval midpoint with the central difference for ``x'``."""
