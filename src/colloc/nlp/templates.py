@@ -71,7 +71,10 @@ class _Symbols:
         by_symbol.update(zip(part.plain_known, _entries(self.pk), strict=True))
         # Schedule points enter only through their slots; as plain parameters they are unused.
         self.p = ca.vertcat(*(by_symbol.get(p, ca.SX(0)) for p in part.model.parameters))
-        free_slots, data_slots, weights, S = [], [], [], []
+        free_slots: list[ca.SX] = []
+        data_slots: list[ca.SX] = []
+        weights: list[ca.SX] = []
+        S: list[ca.SX] = []
         for i, (sched, unknown) in enumerate(
             zip(part.model.schedules, part.schedule_is_unknown, strict=True)
         ):
