@@ -1,7 +1,7 @@
 """colloc: identify the hidden parameters of closed-loop dynamic systems by direct collocation."""
 
 from colloc import transcription
-from colloc.control import StateFeedback
+from colloc.control import GainScheduled, StateFeedback
 from colloc.control.lqr import LQRResult, lqr
 from colloc.model import Model, ModelError, ProblemDefinitionError
 from colloc.model.linearize import linearize
@@ -12,6 +12,7 @@ from colloc.nlp.uncertainty import ParameterUncertainty, parameter_uncertainty
 __version__ = "0.1.0"
 
 __all__ = [
+    "GainScheduled",
     "IntegralCost",
     "LQRResult",
     "ParameterUncertainty",
