@@ -175,7 +175,14 @@ def _pendulum(args: argparse.Namespace) -> int:
     def progress(step: str, detail: str) -> None:
         print(f"[{time.perf_counter() - start:7.2f} s] {step:<15} {detail}", flush=True)
 
-    run = run_pendulum(settings, progress=progress)
+    def iteration(row: dict[str, float]) -> None:
+        print(
+            f"{'':12}{'':16}iter {int(row['iteration']):3d}  objective {row['objective']:.6e}  "
+            f"infeasibility {row['infeasibility']:.2e}",
+            flush=True,
+        )
+
+    run = run_pendulum(settings, progress=progress, iterations=iteration)
     run_id = pendulum_run_id(run)
     stats = run.solution.stats
     print(

@@ -190,7 +190,10 @@ class PendulumRun:
 
 
 def run_pendulum(
-    settings: PendulumSettings, progress: Progress | None = None, cache: Any = True
+    settings: PendulumSettings,
+    progress: Progress | None = None,
+    cache: Any = True,
+    iterations: Callable[[dict[str, float]], None] | None = None,
 ) -> PendulumRun:
     """Run the whole study (derive, control design, simulate, build, solve, uncertainty).
 
@@ -201,6 +204,8 @@ def run_pendulum(
         ``progress(step, detail)`` as each step starts or ends.
     cache : bool or path
         Build cache for :class:`colloc.Problem`.
+    iterations : callable, optional
+        Called after every IPOPT iteration (see :meth:`colloc.Problem.solve`).
 
     Returns
     -------
@@ -286,7 +291,7 @@ def run_pendulum(
     )
 
     say("solve", f"IPOPT, {settings.hessian} Hessian, {len(gain_symbols)} gains")
-    solution = problem.solve(z0, hessian=settings.hessian)
+    solution = problem.solve(z0, hessian=settings.hessian, progress=iterations)
     timings["solve"] = solution.stats["solve_time"]
     identified = np.array([solution.parameters[k] for k in gain_symbols])
     uncertainty = None

@@ -132,14 +132,17 @@ class Problem:
         raise_if_any(problems, ProblemDefinitionError)
 
         self.layout = self._make_layout()
+        t_derive = time.perf_counter()
         templates, self.cache_hit = build_templates(
             self.partition, scheme, node_terms, ic_exprs, ic_vars, cache
         )
+        self.derive_time = time.perf_counter() - t_derive
         self._templates = templates
         self._node_terms = node_terms
         self._ic_locs = ic_locs
         self.nlp = self._assemble(templates, node_terms, ic_locs)
         self.build_time = time.perf_counter() - t_start
+        """Seconds to construct the problem, including :attr:`derive_time`."""
 
     # ---------------------------------------------------------------- layout
     def _make_layout(self) -> Layout:

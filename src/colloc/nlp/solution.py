@@ -70,6 +70,13 @@ class Solution:
             "constraint_violation": result.constraint_violation,
             "build_time": problem.build_time,
             "solve_time": result.solve_time,
+            # derive: SymPy -> CasADi translation and differentiation (or the cache load);
+            # build: the rest of the problem's construction (layout, index arrays, data).
+            "times": {
+                "derive": problem.derive_time,
+                "build": problem.build_time - problem.derive_time,
+                "solve": result.solve_time,
+            },
             "cache_hit": problem.cache_hit,
             "num_variables": lay.num_variables,
             "num_constraints": lay.num_constraints,
