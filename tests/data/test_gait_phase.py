@@ -40,3 +40,25 @@ def test_phase_errors() -> None:
         gait_phase([1.0], [1.0, np.nan, 3.0])
     with pytest.raises(ValueError, match="time has 1 NaN/infinite values"):
         gait_phase([1.0, np.nan], STRIKES)
+
+
+def test_unwrapped_phase_counts_strides_and_matches_wrapped_phase():
+    from colloc.data import unwrapped_gait_phase
+
+    strikes = np.array([1.0, 2.2, 3.1, 4.5])
+    t = np.array([0.5, 1.0, 1.6, 2.2, 2.65, 3.1, 3.8, 4.5, 5.0])
+    phi = unwrapped_gait_phase(t, strikes)
+    # hand-computed: stride k contributes k + (t - t_k) / (t_{k+1} - t_k)
+    expected = [np.nan, 0.0, 0.5, 1.0, 1.5, 2.0, 2.5, 3.0, np.nan]
+    np.testing.assert_allclose(phi, expected, equal_nan=True)
+    inside = ~np.isnan(phi)
+    np.testing.assert_allclose(
+        np.mod(phi[inside], 1.0), np.mod(gait_phase(t, strikes)[inside], 1.0)
+    )
+
+
+def test_unwrapped_phase_needs_increasing_strikes():
+    from colloc.data import unwrapped_gait_phase
+
+    with pytest.raises(ValueError, match="strictly increasing"):
+        unwrapped_gait_phase([0.0, 1.0], [1.0, 1.0])

@@ -10,7 +10,7 @@ from colloc.data.columns import (
     TORQUE_COLUMNS,
 )
 from colloc.data.events import detect_heel_strikes
-from colloc.data.phase import gait_phase
+from colloc.data.phase import gait_phase, unwrapped_gait_phase
 from colloc.data.records import WinterGaitCycle, read_vertical_grf, read_winter_gait_cycle
 from colloc.data.split import split
 from colloc.data.trial import Trial, read_trial
@@ -27,6 +27,7 @@ __all__ = [
     "belt_position",
     "detect_heel_strikes",
     "gait_phase",
+    "unwrapped_gait_phase",
     "read_belt_perturbation",
     "read_trial",
     "read_vertical_grf",

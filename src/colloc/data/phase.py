@@ -72,3 +72,34 @@ def gait_phase(
     else:
         phase = np.where(before | after, np.nan, phase)
     return phase
+
+
+def unwrapped_gait_phase(time: ArrayLike, heel_strikes: ArrayLike) -> np.ndarray:
+    """Gait phase in cycles that keeps counting: ``k + phi`` during stride ``k``.
+
+    This is the form scheduled controllers take (see :class:`colloc.GainScheduled`): it is
+    non-decreasing, so it can be interpolated between samples without wrapping artefacts.
+    Outside the first and last heel strike the result is NaN.
+
+    Parameters
+    ----------
+    time : array_like
+        Sample times.
+    heel_strikes : array_like
+        Increasing heel-strike times of the reference foot.
+
+    Returns
+    -------
+    ndarray
+        0 at the first strike, 1 at the second, ... linear in between.
+    """
+    t = np.asarray(time, dtype=float)
+    hs = np.asarray(heel_strikes, dtype=float)
+    if hs.ndim != 1 or hs.size < 2 or np.any(np.diff(hs) <= 0):
+        raise ValueError(
+            "heel_strikes: expected at least two strictly increasing times, "
+            f"found {hs.size} value(s)"
+        )
+    out = np.interp(t, hs, np.arange(hs.size, dtype=float))
+    out[(t < hs[0]) | (t > hs[-1])] = np.nan
+    return out

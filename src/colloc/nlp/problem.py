@@ -188,6 +188,9 @@ class Problem:
         N = self.grid.num_nodes
         if known_trajectories is not None:
             new = check_trajectories(self.model, known_trajectories, N, problems)
+            check_schedules(
+                self.model, self.known_parameters, self.partition.unknown_parameters, new, problems
+            )
             if set(new) != set(self.known_trajectories) and not problems:
                 problems.append(
                     "known_trajectories: expected the same inputs as the built problem "
