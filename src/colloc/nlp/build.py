@@ -19,7 +19,7 @@ from colloc.nlp.templates import (
     objective_template,
     residual_function,
 )
-from colloc.numeric.cache import BuildCache, cache_key
+from colloc.numeric.cache import BuildCache, cache_key, expression_digest
 from colloc.numeric.stencil import StencilFunctions
 from colloc.transcription.base import Scheme
 
@@ -38,7 +38,7 @@ def _fingerprint(
     m = part.model
     return [
         f"colloc-build={_VERSION}",
-        sm.srepr(m.residual),
+        "residual=" + expression_digest(list(m.residual)),
         "states=" + ",".join(sm.srepr(x) for x in m.states),
         "inputs=" + ",".join(sm.srepr(r) for r in m.inputs),
         "params=" + ",".join(sm.srepr(p) for p in m.parameters),
@@ -46,8 +46,11 @@ def _fingerprint(
         "known_inputs=" + ",".join(name_of(r) for r in part.known_inputs),
         "unknown=" + ",".join(name_of(p) for p in part.unknown_parameters),
         f"scheme={scheme.name}",
-        "objective=" + "|".join(sm.srepr(t.expr) + repr(t.data_symbols) for t in terms),
-        "instance=" + "|".join(sm.srepr(e) for e in ic_exprs) + repr(list(ic_vars)),
+        "objective="
+        + expression_digest([t.expr for t in terms])
+        + repr([t.data_symbols for t in terms]),
+        "instance=" + expression_digest(list(ic_exprs)) + repr(list(ic_vars)),
+        "schedules=" + repr([(s.slots_a, s.slots_b, s.weight, s.phase) for s in m.schedules]),
     ]
 
 

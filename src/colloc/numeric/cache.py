@@ -73,3 +73,40 @@ class BuildCache:
             os.replace(tmp, self._path(key))
         except OSError as exc:
             logger.warning("could not write cache entry in %s: %s", self.directory, exc)
+
+
+def expression_digest(exprs: Iterable[Any]) -> str:
+    """A hash of SymPy expressions that visits every distinct subexpression once.
+
+    ``srepr`` prints shared subexpressions again at every use, which for equations from
+    Kane's method is exponentially longer than the expression graph (seconds for gait2d);
+    this walks the graph with a memo instead.
+    """
+    import sympy as sm
+
+    memo: dict[Any, bytes] = {}
+
+    def digest(root: Any) -> bytes:
+        stack: list[tuple[Any, bool]] = [(root, False)]
+        while stack:
+            node, ready = stack.pop()
+            if node in memo:
+                continue
+            args = getattr(node, "args", ())
+            if not args or not isinstance(node, sm.Basic):
+                memo[node] = hashlib.sha256(sm.srepr(node).encode()).digest()
+                continue
+            if not ready:
+                stack.append((node, True))
+                stack.extend((a, False) for a in args if a not in memo)
+                continue
+            h = hashlib.sha256(type(node).__name__.encode())
+            for a in args:
+                h.update(memo[a])
+            memo[node] = h.digest()
+        return memo[root]
+
+    total = hashlib.sha256()
+    for e in exprs:
+        total.update(digest(e))
+    return total.hexdigest()
