@@ -378,3 +378,21 @@ def test_objective_with_a_state_derivative_uses_the_derivative_variables(model):
 def test_objective_with_a_stray_symbol_names_it(model):
     with pytest.raises((TypeError, ValueError), match=r"\['zz'\]"):
         make(model, objective=IntegralCost(r**2 + sm.Symbol("zz")))
+
+
+def test_replace_data_with_new_known_parameters_matches_a_fresh_build():
+    import colloc
+
+    """Changing known constants re-solves without a rebuild and equals a new Problem."""
+    t = dynamicsymbols._t
+    q, u = dynamicsymbols("q u")
+    m, c, k = sm.symbols("m c k")
+    model = colloc.Model.from_equations([q.diff(t) - u, m * u.diff(t) + c * u + k * q], [q, u])
+    times = np.linspace(0.0, 1.0, 11)
+    first = colloc.Problem(model, times, known_parameters={m: 1.0, c: 0.2, k: 3.0}, cache=False)
+    z = np.random.default_rng(3).normal(size=first.layout.num_variables)
+    first.replace_data(known_parameters={m: 2.0, c: 0.5, k: 7.0})
+    fresh = colloc.Problem(model, times, known_parameters={m: 2.0, c: 0.5, k: 7.0}, cache=False)
+    np.testing.assert_allclose(first.defects(z), fresh.defects(z), rtol=0, atol=1e-12)
+    with pytest.raises(colloc.ProblemDefinitionError, match="neither known nor unknown"):
+        first.replace_data(known_parameters={m: 2.0, c: 0.5})

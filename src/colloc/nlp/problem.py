@@ -173,11 +173,13 @@ class Problem:
         self,
         objective: ObjectiveTerm | Sequence[ObjectiveTerm] | None = None,
         known_trajectories: Mapping[sm.Basic, Any] | None = None,
+        known_parameters: Mapping[sm.Symbol, Any] | None = None,
     ) -> None:
-        """Swap in new measurements or known trajectories without rebuilding.
+        """Swap in new measurements, known trajectories or known values without rebuilding.
 
-        The new objective terms must have the same structure (the same outputs tracked);
-        only their data change, which the built functions take as inputs.
+        The new objective terms must have the same structure (the same outputs tracked),
+        and the same parameters must be known; only their data change, which the built
+        functions take as inputs (e.g. a continuation in a contact stiffness).
 
         Raises
         ------
@@ -196,6 +198,16 @@ class Problem:
                     "known_trajectories: expected the same inputs as the built problem "
                     f"{[name_of(r) for r in self.known_trajectories]}, found {[name_of(r) for r in new]}"
                 )
+        values = self.known_parameters
+        if known_parameters is not None:
+            values, _ = check_parameters(
+                self.model, known_parameters, self.partition.unknown_parameters, problems
+            )
+            if set(values) != set(self.known_parameters) and not problems:
+                problems.append(
+                    "known_parameters: expected values for the same parameters as the built "
+                    f"problem ({len(self.known_parameters)}), found {len(values)}"
+                )
         terms = self._node_terms
         if objective is not None:
             terms = []
@@ -213,6 +225,7 @@ class Problem:
         raise_if_any(problems, ProblemDefinitionError)
         if known_trajectories is not None:
             self.known_trajectories = new
+        self.known_parameters = values
         self._node_terms = terms
         self.nlp = self._assemble(self._templates, terms, self._ic_locs)
 
