@@ -163,13 +163,12 @@ def _plant() -> tuple[Gait2D, Model]:
 def default_winter_path() -> Path:
     """Where Winter's normal gait cycle is read from by default.
 
-    ``$COLLOC_WINTER_GAIT_CYCLE`` if set, else ``shared/data/winter-normal-gait-cycle/
-    Winter_normal.csv`` beside the project checkout.
+    ``$COLLOC_WINTER_GAIT_CYCLE`` if set, else the copy shipped in ``colloc/gait/reference``
+    (see its SOURCE.md).
     """
     if os.environ.get(WINTER_ENV):
         return Path(os.environ[WINTER_ENV])
-    root = Path(__file__).resolve().parents[4]
-    return root / "shared" / "data" / "winter-normal-gait-cycle" / "Winter_normal.csv"
+    return Path(__file__).resolve().parent / "reference" / "Winter_normal.csv"
 
 
 def stride_duration(speed: float, reference: WinterGaitCycle) -> float:
