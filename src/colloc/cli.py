@@ -122,6 +122,31 @@ def build_parser() -> argparse.ArgumentParser:
     )
     p.add_argument("--json", type=Path, default=None, help="write a machine-readable summary here")
 
+    g = sub.add_parser("gait", help="planar walking: synthetic perturbed-walking trials")
+    gs = g.add_subparsers(dest="gait_command", required=True)
+    sim = gs.add_parser(
+        "simulate",
+        help="find a walking cycle, design its gain-scheduled controller, and simulate a "
+        "perturbed-walking trial",
+    )
+    sim.add_argument(
+        "--duration", type=_number, default=60.0, help="seconds of walking (default %(default)s)"
+    )
+    sim.add_argument(
+        "--speed", type=_number, default=1.2, help="mean belt speed, m/s (default %(default)s)"
+    )
+    sim.add_argument(
+        "--seed", type=_positive_int, default=0, help="random seed (default %(default)s)"
+    )
+    sim.add_argument("--out", type=Path, default=Path("gait-simulation"), help="output directory")
+    sim.add_argument(
+        "--points", type=_positive_int, default=50, help="schedule points P (default %(default)s)"
+    )
+    sim.add_argument("--structure", default="full", help="gain structure: full or joint-isolated")
+    sim.add_argument(
+        "--unperturbed", action="store_true", help="constant belt speed instead of the record"
+    )
+
     r = sub.add_parser("runs", help="list, show, export or delete stored runs")
     r.add_argument("--db", default=DEFAULT_URL, help="results database URL (default %(default)s)")
     rs = r.add_subparsers(dest="runs_command", required=True)
@@ -244,7 +269,42 @@ def _runs(args: argparse.Namespace) -> int:
     return 0
 
 
-COMMANDS = {"pendulum": _pendulum, "runs": _runs}
+def _gait(args: argparse.Namespace) -> int:
+    from colloc.gait.workflow import GaitSimulationSettings, simulate_trial
+
+    settings = GaitSimulationSettings(
+        duration=args.duration,
+        speed=args.speed,
+        seed=args.seed,
+        out=args.out,
+        num_points=args.points,
+        structure=args.structure,
+        perturbed=not args.unperturbed,
+    )
+    problems = settings.problems()
+    if problems:
+        for line in problems:
+            print(f"colloc gait simulate: error: {line}", file=sys.stderr)
+        return 2
+    start = time.perf_counter()
+
+    def progress(step: str, detail: str) -> None:
+        print(f"[{time.perf_counter() - start:7.2f} s] {step:<15} {detail}", flush=True)
+
+    result = simulate_trial(settings, progress=progress)
+    for name, path in result.files.items():
+        print(f"  {name}: {path}")
+    for note in result.notes:
+        print(f"note: {note}")
+    summary = result.summary
+    print(
+        f"strides: {summary.get('stride_count')}, fell: {result.fell}, "
+        f"wall time {time.perf_counter() - start:.1f} s"
+    )
+    return 1 if result.fell else 0
+
+
+COMMANDS = {"pendulum": _pendulum, "gait": _gait, "runs": _runs}
 
 
 def main(argv: Sequence[str] | None = None) -> int:

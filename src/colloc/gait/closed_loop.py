@@ -1,0 +1,404 @@
+"""Closed-loop walking: the gait model driven by a gain-scheduled controller on a moving belt.
+
+The controller is ``T = T*(phi) - K(phi) s + n(t)`` with ``s`` the joint angles and rates,
+``T*`` and ``K`` interpolated linearly and periodically between ``P`` points (exactly as
+:meth:`colloc.control.gain_scheduled.GainScheduled.torque`), and ``n`` optional seeded motor
+noise. Its phase is causal, as a real-time controller's would be: ``phi = 0`` at each
+detected right heel strike and rises linearly at the rate of the previous stride's duration
+(the first stride uses the cycle's duration); if the next heel strike is late, ``phi`` holds
+at 1 (which is the schedule's point 0) until it comes.
+
+Heel strikes are detected online, sample by sample, as upward crossings of a vertical
+force threshold by a foot's total (heel plus toe) floor force; the crossing time is
+interpolated between the two samples. The controller learns of a right heel strike at the
+first sample after it (a one-sample detection delay).
+
+Integration: the contact is stiff (cubic stiffness 5e7 N/m^3, friction slip scale 1 cm/s),
+so the closed-loop right-hand side, with the controller and the belt speed inside, is one
+CasADi SX expression integrated by SUNDIALS CVODES (BDF, exact Jacobian by AD) over chunks of
+samples. A chunk restarts at each detected right heel strike, because the phase law changes
+there. The belt speed and the motor noise are linear between samples.
+"""
+
+from __future__ import annotations
+
+import logging
+import os
+import time
+from dataclasses import dataclass, field
+from typing import Any
+
+import casadi as ca
+import numpy as np
+
+from colloc.data.belt import belt_position, read_belt_perturbation, rescale_belt_speed
+from colloc.gait.design import JOINT_STATES
+from colloc.gait.orbit import NUM_STATES, NUM_TORQUES, GaitDynamics
+
+logger = logging.getLogger(__name__)
+
+#: Samples per integrator call (a call restarts early at a right heel strike).
+CHUNK_SAMPLES = 25
+#: A foot's vertical force [N] whose upward crossing is a heel strike.
+HEEL_STRIKE_THRESHOLD = 25.0
+#: Minimum time between heel strikes of one foot [s] (rejects contact chatter).
+MIN_STRIDE_INTERVAL = 0.4
+
+
+@dataclass
+class ClosedLoopRecord:
+    """A simulated walking trial sampled at a fixed rate.
+
+    Attributes
+    ----------
+    times : ndarray, shape (N,)
+    states : ndarray, shape (N, 18)
+        ``[q, u]`` of the gait model.
+    torques : ndarray, shape (N, 6)
+        Applied joint torques ``Tb .. Tg`` (controller output plus motor noise).
+    contact_forces : ndarray, shape (N, 8)
+        ``Fx, Fy`` on the right heel, right toe, left heel, left toe [N].
+    belt_speed, belt_position : ndarray, shape (N,)
+    right_heel_strikes, left_heel_strikes : ndarray
+        Detected heel-strike times [s].
+    phase : ndarray, shape (N,)
+        The controller's unwrapped phase (strides since the start plus ``phi``).
+    fell : bool
+        True if the hip height left ``hip_height_range`` or the integration failed.
+    message : str
+    stats : dict
+        ``wall_time`` [s], ``realtime_factor`` (simulated s per wall s), ``num_strides``,
+        ``num_calls``.
+    """
+
+    times: np.ndarray
+    states: np.ndarray
+    torques: np.ndarray
+    contact_forces: np.ndarray
+    belt_speed: np.ndarray
+    belt_position: np.ndarray
+    right_heel_strikes: np.ndarray
+    left_heel_strikes: np.ndarray
+    phase: np.ndarray
+    fell: bool
+    message: str
+    stats: dict[str, Any] = field(default_factory=dict)
+
+    @property
+    def vertical_grf(self) -> np.ndarray:
+        """Total vertical floor force on the right and left foot, shape (N, 2) [N]."""
+        fy = self.contact_forces[:, 1::2]
+        return np.column_stack([fy[:, 0] + fy[:, 1], fy[:, 2] + fy[:, 3]])
+
+
+def perturbation_belt_speed(
+    path: str | os.PathLike[str], mean_speed: float, duration: float, sample_rate: float = 100.0
+) -> tuple[np.ndarray, np.ndarray]:
+    """A measured belt-speed record moved to ``mean_speed`` and stretched to ``duration``.
+
+    Beyond its end the record continues mirrored in time (played backward, then forward
+    again, ...), which keeps the belt speed continuous where a plain loop would jump.
+
+    Parameters
+    ----------
+    path : path-like
+        Record readable by :func:`colloc.data.belt.read_belt_perturbation`.
+    mean_speed : float
+        Mean belt speed [m/s] (:func:`colloc.data.belt.rescale_belt_speed`).
+    duration : float
+        [s], > 0.
+    sample_rate : float
+        [Hz] of the returned samples.
+
+    Returns
+    -------
+    times, speed : ndarray
+    """
+    if not (np.isfinite(duration) and duration > 0):
+        raise ValueError(f"duration: expected a positive number of seconds, found {duration!r}")
+    t_rec, v_rec = read_belt_perturbation(path)
+    v_rec = rescale_belt_speed(v_rec, mean_speed)
+    times = np.arange(int(round(duration * sample_rate)) + 1) / sample_rate
+    length = t_rec[-1] - t_rec[0]
+    folded = np.mod(times, 2 * length)
+    folded = np.where(folded > length, 2 * length - folded, folded) + t_rec[0]
+    return times, np.interp(folded, t_rec, v_rec)
+
+
+def _closed_loop_integrator(
+    dyn: GaitDynamics,
+    Tstar: np.ndarray,
+    K: np.ndarray,
+    h: float,
+    chunk: int,
+    rtol: float,
+    feedback: np.ndarray,
+) -> tuple[ca.Function, ca.Function]:
+    """CVODES over ``chunk`` samples; parameters ``[a, b, v_0..v_C, n_0..n_C]``."""
+    P = Tstar.shape[0]
+    tau = ca.SX.sym("tau")
+    a, b = ca.SX.sym("a"), ca.SX.sym("b")
+    v = ca.SX.sym("v", chunk + 1)
+    noise = ca.SX.sym("n", NUM_TORQUES, chunk + 1)
+    phi = ca.fmin(a + b * tau, 1.0)
+    # Hat functions: weight of schedule point p (p = P is point 0 again).
+    hats = ca.fmax(0, 1 - ca.fabs(phi * P - ca.DM(np.arange(P + 1))))
+    tstar_table = ca.DM(np.vstack([Tstar, Tstar[:1]]).T)
+    k_flat = K.reshape(P, -1)
+    k_table = ca.DM(np.vstack([k_flat, k_flat[:1]]).T)
+    t_star = ca.mtimes(tstar_table, hats)
+    gain = ca.reshape(ca.mtimes(k_table, hats), feedback.size, NUM_TORQUES).T
+    sample_hats = ca.fmax(0, 1 - ca.fabs(tau / h - ca.DM(np.arange(chunk + 1))))
+    belt = ca.dot(v, sample_hats)
+    s = dyn.x[feedback.tolist()]
+    torque = t_star - ca.mtimes(gain, s) + ca.mtimes(noise, sample_hats)
+    ode = ca.substitute(dyn.xdot, ca.vertcat(dyn.torque, dyn.belt), ca.vertcat(torque, belt))
+    p = ca.vertcat(a, b, v, ca.vec(noise))
+    grid = list(h * np.arange(1, chunk + 1))
+    opts = {"abstol": rtol * 1e-2, "reltol": rtol, "max_num_steps": 100000}
+    integ = ca.integrator(
+        "walk", "cvodes", {"x": dyn.x, "p": p, "t": tau, "ode": ode}, 0.0, grid, opts
+    )
+    torque_fn = ca.Function("torque", [dyn.x, tau, p], [torque])
+    return integ, torque_fn
+
+
+def simulate_walking(
+    cycle: Any,
+    Tstar: np.ndarray,
+    K: np.ndarray,
+    duration: float,
+    belt_speed: tuple[np.ndarray, np.ndarray] | None = None,
+    *,
+    dynamics: GaitDynamics | None = None,
+    seed: int | None = 0,
+    sample_rate: float = 100.0,
+    torque_noise: float = 0.0,
+    hip_height_range: tuple[float, float] | None = None,
+    threshold: float = HEEL_STRIKE_THRESHOLD,
+    rtol: float = 1e-6,
+    initial_state: np.ndarray | None = None,
+    feedback: np.ndarray | None = None,
+) -> ClosedLoopRecord:
+    """Simulate walking on a treadmill under the gain-scheduled controller.
+
+    Parameters
+    ----------
+    cycle : WalkingCycle
+        The periodic cycle the controller was designed for (initial state at phase 0, first
+        stride duration, belt speed when ``belt_speed`` is None).
+    Tstar : ndarray, shape (P, 6)
+    K : ndarray, shape (P, 6, n_s)
+        The controller schedule (e.g. from :func:`colloc.gait.design.design_controller`).
+    duration : float
+        Simulated time [s].
+    belt_speed : (times, speed), optional
+        Belt speed samples, linearly interpolated (e.g. :func:`perturbation_belt_speed`);
+        must cover ``[0, duration]``. Default: constant ``cycle.belt_speed``.
+    dynamics : GaitDynamics, optional
+    seed : int, optional
+        Seeds the motor noise.
+    sample_rate : float
+        [Hz] of the record and of the online heel-strike detection.
+    torque_noise : float
+        Standard deviation [N m] of independent Gaussian motor noise on each joint torque,
+        drawn at every sample and linear in between (0: none).
+    hip_height_range : (low, high), optional
+        Walking range of ``qay`` [m]; leaving it counts as a fall. Default: the cycle's
+        hip-height range widened by 0.15 m each way.
+    threshold : float
+        Heel-strike force threshold [N].
+    rtol : float
+        Relative tolerance of CVODES.
+    initial_state : ndarray, shape (18,), optional
+        Default: the cycle's state at phase 0.
+    feedback : ndarray of int, optional
+        Indices of the fed-back states ``s`` in ``[q, u]``, as given to the design; default
+        the joint angles then rates.
+
+    Returns
+    -------
+    ClosedLoopRecord
+
+    Raises
+    ------
+    ValueError
+        On unusable arguments (all reported at once).
+    """
+    Tstar, K = np.asarray(Tstar, float), np.asarray(K, float)
+    _check(Tstar, K, duration, sample_rate, torque_noise, belt_speed)
+    dyn = dynamics or GaitDynamics.build()
+    h = 1.0 / sample_rate
+    num = int(round(duration * sample_rate)) + 1
+    times = np.arange(num) * h
+    if belt_speed is None:
+        v_all = np.full(num, float(cycle.belt_speed))
+    else:
+        v_all = np.interp(times, *belt_speed)
+    rng = np.random.default_rng(seed)
+    noise_all = torque_noise * rng.standard_normal((num + CHUNK_SAMPLES, NUM_TORQUES))
+    if hip_height_range is None:
+        qay = np.asarray(cycle.states)[:, 1]
+        hip_height_range = (float(qay.min()) - 0.15, float(qay.max()) + 0.15)
+    fb = JOINT_STATES if feedback is None else np.asarray(feedback, dtype=int)
+    if K.shape[2] != fb.size:
+        raise ValueError(f"K: has {K.shape[2]} gain columns but feedback names {fb.size} states")
+    integ, torque_fn = _closed_loop_integrator(dyn, Tstar, K, h, CHUNK_SAMPLES, rtol, fb)
+
+    x0 = cycle.state_at(0.0) if initial_state is None else np.asarray(initial_state, float)
+    states = np.empty((num, NUM_STATES))
+    states[0] = x0
+    phase = np.zeros(num)
+    torques = np.zeros((num, NUM_TORQUES))
+    stride_start, stride_duration, stride_count = 0.0, float(cycle.duration), 0
+    strikes: dict[str, list[float]] = {"right": [], "left": []}
+    fy = np.zeros((num, 2))
+    fy[0] = _foot_forces(dyn, x0, v_all[0])
+    fell, message, calls = False, "walked the whole duration", 0
+    start_wall = time.perf_counter()
+    i = 0  # last accepted sample
+    while i < num - 1:
+        a = (times[i] - stride_start) / stride_duration
+        b = 1.0 / stride_duration
+        seg_v = _padded(v_all, i, CHUNK_SAMPLES + 1)
+        seg_n = _padded(noise_all, i, CHUNK_SAMPLES + 1)
+        p = np.concatenate([[a, b], seg_v, seg_n.T.ravel(order="F")])
+        try:
+            out = np.asarray(integ(x0=states[i], p=p)["xf"]).T
+        except RuntimeError as exc:
+            fell, message = True, f"integration failed at t = {times[i]:.3f} s: {exc}"
+            break
+        calls += 1
+        torques[i] = np.asarray(torque_fn(states[i], 0.0, p)).ravel()
+        phase[i] = stride_count + min(a, 1.0)
+        restart, base = False, i
+        for j in range(1, min(CHUNK_SAMPLES, num - 1 - base) + 1):
+            k = base + j
+            states[k] = out[j - 1]
+            tau = j * h
+            torques[k] = np.asarray(torque_fn(states[k], tau, p)).ravel()
+            phase[k] = stride_count + min(a + b * tau, 1.0)
+            fy[k] = _foot_forces(dyn, states[k], v_all[k])
+            if not hip_height_range[0] <= states[k, 1] <= hip_height_range[1]:
+                fell = True
+                message = (
+                    f"fell at t = {times[k]:.2f} s: hip height {states[k, 1]:.3f} m left the "
+                    f"walking range {hip_height_range}"
+                )
+                i = k
+                break
+            for col, side in enumerate(("right", "left")):
+                crossing = _crossing(times[k - 1], times[k], fy[k - 1, col], fy[k, col], threshold)
+                if crossing is None or (
+                    strikes[side] and crossing - strikes[side][-1] < MIN_STRIDE_INTERVAL
+                ):
+                    continue
+                strikes[side].append(crossing)
+                if side == "right":
+                    # The first strike ends a stride that began before the record did.
+                    measured = crossing - stride_start if len(strikes[side]) > 1 else np.inf
+                    stride_duration = _next_duration(measured, cycle.duration)
+                    stride_start, stride_count = crossing, stride_count + 1
+                    phase[k] = stride_count + (times[k] - stride_start) / stride_duration
+                    restart = True
+            i = k
+            if restart:
+                break
+        if fell:
+            break
+    wall = time.perf_counter() - start_wall
+    last = i + 1
+    record = ClosedLoopRecord(
+        times=times[:last],
+        states=states[:last],
+        torques=torques[:last],
+        contact_forces=np.asarray(dyn.contact_forces.map(last)(states[:last].T, v_all[:last])).T,
+        belt_speed=v_all[:last],
+        belt_position=belt_position(times[:last], v_all[:last]),
+        right_heel_strikes=np.array(strikes["right"]),
+        left_heel_strikes=np.array(strikes["left"]),
+        phase=phase[:last],
+        fell=fell,
+        message=message,
+        stats={
+            "wall_time": wall,
+            "realtime_factor": times[last - 1] / wall if wall > 0 else float("inf"),
+            "num_strides": len(strikes["right"]),
+            "num_calls": calls,
+        },
+    )
+    logger.info("simulate_walking: %s (%.1f s wall)", message, wall)
+    return record
+
+
+def _next_duration(measured: float, nominal: float) -> float:
+    if not np.isfinite(measured):
+        return nominal
+    # A stride far from nominal is a detection artefact or a stumble; do not let it
+    # distort the next stride's phase rate beyond a plausible range.
+    return float(np.clip(measured, 0.7 * nominal, 1.3 * nominal))
+
+
+def _crossing(t0: float, t1: float, f0: float, f1: float, threshold: float) -> float | None:
+    if f0 < threshold <= f1:
+        return t0 + (threshold - f0) / (f1 - f0) * (t1 - t0)
+    return None
+
+
+def _foot_forces(dyn: GaitDynamics, x: np.ndarray, v: float) -> np.ndarray:
+    f = np.asarray(dyn.contact_forces(x, v)).ravel()
+    return np.array([f[1] + f[3], f[5] + f[7]])
+
+
+def _padded(values: np.ndarray, start: int, count: int) -> np.ndarray:
+    seg = values[start : start + count]
+    if seg.shape[0] < count:
+        pad = np.repeat(seg[-1:], count - seg.shape[0], axis=0)
+        seg = np.concatenate([seg, pad], axis=0)
+    return seg
+
+
+def _check(
+    Tstar: np.ndarray,
+    K: np.ndarray,
+    duration: Any,
+    sample_rate: Any,
+    torque_noise: Any,
+    belt_speed: Any,
+) -> None:
+    problems = []
+    if Tstar.ndim != 2 or Tstar.shape[1] != NUM_TORQUES or Tstar.shape[0] < 2:
+        problems.append(
+            f"Tstar: expected shape (P, {NUM_TORQUES}) with P >= 2, found {Tstar.shape}"
+        )
+    elif K.ndim != 3 or K.shape[:2] != (Tstar.shape[0], NUM_TORQUES):
+        problems.append(
+            f"K: expected shape ({Tstar.shape[0]}, {NUM_TORQUES}, n_s), found {K.shape}"
+        )
+    for name, value in (("duration", duration), ("sample_rate", sample_rate)):
+        if not (isinstance(value, int | float) and np.isfinite(value) and value > 0):
+            problems.append(f"{name}: expected a positive finite number, found {value!r}")
+    if not (
+        isinstance(torque_noise, int | float) and np.isfinite(torque_noise) and torque_noise >= 0
+    ):
+        problems.append(f"torque_noise: expected a non-negative number, found {torque_noise!r}")
+    if belt_speed is not None:
+        t, v = (np.asarray(a, float) for a in belt_speed)
+        if t.ndim != 1 or t.shape != v.shape or t.size < 2:
+            problems.append(
+                f"belt_speed: expected (times, speed) of equal 1-D shapes, found {t.shape}, {v.shape}"
+            )
+        elif isinstance(duration, int | float) and (t[0] > 0 or t[-1] < duration):
+            problems.append(
+                f"belt_speed: expected samples covering [0, {duration}] s, found "
+                f"[{t[0]}, {t[-1]}] s"
+            )
+    if problems:
+        raise ValueError("simulate_walking: " + "; ".join(problems))
+
+
+__all__ = [
+    "ClosedLoopRecord",
+    "perturbation_belt_speed",
+    "simulate_walking",
+]

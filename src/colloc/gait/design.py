@@ -1,0 +1,245 @@
+"""A gain-scheduled joint-feedback controller that stabilises a periodic walking cycle.
+
+1. Linearise the gait model along the cycle: ``x' = A(t) x + B(t) T`` (:mod:`.orbit`).
+2. Periodic LQR on that linearisation, discretised exactly between the samples
+   (:func:`colloc.control.periodic_lqr.sampled_periodic_lqr`; the Riccati ODE of
+   :func:`~colloc.control.periodic_lqr.periodic_lqr` blows up numerically on the stiff,
+   abruptly switching contact linearisation).
+   The hip's forward position ``qax`` is left out: nothing in the dynamics depends on it
+   (the floor is uniform), so it is a neutral mode with Floquet multiplier exactly 1 that no
+   joint controller can or needs to remove; the remaining 17 states are regulated.
+3. Keep only the gain columns of the 12 joint states ``s = [qb..qg, ub..ug]`` (the seed's
+   controller feeds back joint angles and rates, not the trunk and hip), sample ``K_s`` at
+   ``P`` equally spaced phases ``phi_p = p / P`` and set
+   ``T*(phi) = T_cycle(phi) + K_s(phi) s_cycle(phi)``, so that
+   ``T = T*(phi) - K_s(phi) s = T_cycle - K_s (s - s_cycle)``.
+4. Check the Floquet multipliers of the cycle closed with exactly that controller (gains
+   linearly interpolated between the ``P`` points as :class:`GainScheduled` does), in
+   :attr:`DesignInfo.multipliers`.
+
+Weights (:data:`DEFAULT_STATE_WEIGHTS`): a deviation of 0.05 rad (about 3 deg) in an angle,
+0.5 rad/s in a rate, 5 cm in hip height or 0.5 m/s in hip speed costs as much as 50 N m of
+torque (``R = I / 50^2``). Known limitation: simply dropping the trunk/hip columns leaves
+the joint-only loop unstable on the walking cycles tried so far (see
+:attr:`DesignInfo.spectral_radius`); callers must check it.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+from sympy.physics.mechanics import dynamicsymbols
+
+from colloc.control.gain_scheduled import GainScheduled
+from colloc.control.periodic_lqr import discrete_monodromy, sampled_periodic_lqr
+from colloc.gait.orbit import NUM_STATES, GaitDynamics, cycle_linearization
+
+#: Indices of ``s`` (joint angles ``qb..qg`` then joint rates ``ub..ug``) in ``x = [q, u]``.
+JOINT_STATES: np.ndarray = np.r_[3:9, 12:18]
+#: The states the LQR regulates: all but the hip's forward position ``qax`` (index 0).
+REGULATED: np.ndarray = np.arange(1, NUM_STATES)
+
+#: Diagonal of ``Q`` over ``x = [q, u]`` (SI units); the ``qax`` entry is unused.
+DEFAULT_STATE_WEIGHTS: np.ndarray = np.r_[
+    0.0,
+    1 / 0.05**2,
+    np.full(7, 1 / 0.05**2),
+    1 / 0.5**2,
+    1 / 0.5**2,
+    np.full(7, 1 / 0.5**2),
+]
+#: Torque weight: ``R = I / DEFAULT_TORQUE_SCALE^2``.
+DEFAULT_TORQUE_SCALE = 50.0
+
+
+@dataclass(frozen=True, eq=False)
+class DesignInfo:
+    """What :func:`design_controller` computed on the way.
+
+    Attributes
+    ----------
+    times : ndarray, shape (N,)
+        Linearisation times over one stride.
+    full_gain : ndarray, shape (N, 6, 18)
+        Periodic LQR gain on all states (zero column for ``qax``).
+    lqr_multipliers : ndarray
+        Floquet multipliers (17, largest first) with the full-state LQR gain.
+    multipliers : ndarray
+        Floquet multipliers (17) with the joint-only controller as scheduled at ``P`` points.
+    Q, R : ndarray
+        The weights used (``Q`` over the 18 states).
+    num_periods : int
+        Riccati periods integrated.
+    """
+
+    times: np.ndarray
+    full_gain: np.ndarray
+    lqr_multipliers: np.ndarray
+    multipliers: np.ndarray
+    Q: np.ndarray
+    R: np.ndarray
+    num_periods: int
+    extra: dict[str, Any] = field(default_factory=dict)
+
+    @property
+    def spectral_radius(self) -> float:
+        """Largest multiplier magnitude of the joint-only closed loop (< 1: stable)."""
+        return float(np.max(np.abs(self.multipliers)))
+
+
+def design_controller(
+    cycle: Any,
+    num_points: int = 50,
+    Q: np.ndarray | None = None,
+    R: np.ndarray | None = None,
+    structure: str | np.ndarray = "full",
+    *,
+    dynamics: GaitDynamics | None = None,
+    num_samples: int | None = None,
+    feedback: Sequence[int] | np.ndarray = JOINT_STATES,
+) -> tuple[GainScheduled, np.ndarray, np.ndarray, DesignInfo]:
+    """Design the known controller for a walking cycle.
+
+    Parameters
+    ----------
+    cycle : WalkingCycle
+        ``times``, ``states (N, 18)``, ``torques (N, 6)``, ``belt_speed``, ``duration``,
+        ``state_at(phase)``.
+    num_points : int
+        ``P``, schedule points over the stride.
+    Q : ndarray, shape (18, 18), optional
+        State weight (row/column of ``qax`` ignored); default ``diag(DEFAULT_STATE_WEIGHTS)``.
+    R : ndarray, shape (6, 6), optional
+        Torque weight; default ``I / DEFAULT_TORQUE_SCALE^2``.
+    structure : {"full", "joint-isolated"} or bool array (6, 12)
+        Gains kept in the controller; the others are set to zero before the check.
+    dynamics : GaitDynamics, optional
+        Default :meth:`GaitDynamics.build` ``()``.
+    num_samples : int, optional
+        Linearise at this many uniform samples of the stride instead of the cycle's nodes.
+    feedback : sequence of int
+        Indices (into the 18 states ``[q, u]``) of the fed-back states ``s``; default the
+        six joint angles then the six joint rates.
+
+    Returns
+    -------
+    controller : GainScheduled
+        Feedback ``s`` = joint angles then rates, inputs the six joint torques.
+    Tstar : ndarray, shape (P, 6)
+    K : ndarray, shape (P, 6, 12)
+    info : DesignInfo
+
+    Raises
+    ------
+    ValueError
+        If ``num_points``, ``Q``, ``R`` or ``structure`` is unusable (all reported).
+    """
+    dyn = dynamics or GaitDynamics.build()
+    gait = dyn.gait
+    fb = np.asarray(feedback, dtype=int)
+    if (
+        fb.ndim != 1
+        or fb.size == 0
+        or np.any((fb < 0) | (fb >= NUM_STATES))
+        or np.unique(fb).size != fb.size
+    ):
+        raise ValueError(
+            f"feedback: expected distinct state indices in [0, {NUM_STATES}), found {fb.tolist()}"
+        )
+    states = gait.coordinates + gait.speeds
+    controller = GainScheduled(
+        num_points,
+        feedback=[states[i] for i in fb],
+        inputs=gait.torques,
+        phase=dynamicsymbols("phi"),
+        structure=structure,
+    )
+    q = np.diag(DEFAULT_STATE_WEIGHTS) if Q is None else np.asarray(Q, float)
+    r = np.eye(6) / DEFAULT_TORQUE_SCALE**2 if R is None else np.asarray(R, float)
+    problems = []
+    if q.shape != (NUM_STATES, NUM_STATES):
+        problems.append(f"Q: expected shape ({NUM_STATES}, {NUM_STATES}), found {q.shape}")
+    if r.shape != (6, 6):
+        problems.append(f"R: expected shape (6, 6), found {r.shape}")
+    if problems:
+        raise ValueError("design_controller: " + "; ".join(problems))
+    times, A, B = cycle_linearization(dyn, cycle, num_samples)
+    reg = np.ix_(REGULATED, REGULATED)
+    res = sampled_periodic_lqr(A[:, REGULATED][:, :, REGULATED], B[:, REGULATED], times, q[reg], r)
+    full = np.zeros((times.size, 6, NUM_STATES))
+    full[:, :, REGULATED] = res.K
+
+    P = controller.num_points
+    phases = np.arange(P) / P
+    cphase = times / times[-1]
+    K = np.empty((P, 6, fb.size))
+    for i, j in np.ndindex(6, fb.size):
+        K[:, i, j] = np.interp(phases, cphase, full[:, i, fb[j]])
+    K[:, ~controller.mask] = 0.0
+    tq = np.asarray(cycle.torques, float).copy()
+    tq[-1] = tq[0]
+    ccphase = np.asarray(cycle.times, float) / cycle.duration
+    t_cycle = np.column_stack([np.interp(phases, ccphase, tq[:, j]) for j in range(6)])
+    s_cycle = cycle.state_at(phases)[:, fb]
+    Tstar = t_cycle + np.einsum("pij,pj->pi", K, s_cycle)
+
+    multipliers = joint_feedback_multipliers(times, A, B, K, fb)
+    info = DesignInfo(
+        times=times,
+        full_gain=full,
+        lqr_multipliers=res.floquet_multipliers,
+        multipliers=multipliers,
+        Q=q,
+        R=r,
+        num_periods=res.num_periods,
+    )
+    return controller, Tstar, K, info
+
+
+def joint_feedback_multipliers(
+    times: np.ndarray,
+    A: np.ndarray,
+    B: np.ndarray,
+    K: np.ndarray,
+    feedback: Sequence[int] | np.ndarray = JOINT_STATES,
+) -> np.ndarray:
+    """Floquet multipliers of ``x' = (A - B K(phi) E) x`` without the neutral ``qax`` mode.
+
+    Parameters
+    ----------
+    times : ndarray, shape (N,)
+        One stride; ``phi = (t - t_0) / (t_N - t_0)``.
+    A, B : ndarray, shapes (N, 18, 18), (N, 18, 6)
+    K : ndarray, shape (P, 6, 12)
+        Joint gains at ``phi_p = p / P``, interpolated linearly and periodically like
+        :meth:`GainScheduled.interpolate`; ``E`` selects the joint states.
+
+    Returns
+    -------
+    ndarray, shape (17,)
+        Largest magnitude first.
+    """
+    P = K.shape[0]
+    phi = (times - times[0]) / (times[-1] - times[0]) * P
+    a = np.floor(phi).astype(int) % P
+    w = phi - np.floor(phi)
+    Kt = (1 - w)[:, None, None] * K[a] + w[:, None, None] * K[(a + 1) % P]
+    full = np.zeros((times.size, 6, NUM_STATES))
+    full[:, :, np.asarray(feedback, dtype=int)] = Kt
+    acl = A - B @ full
+    acl[-1] = acl[0]
+    mu = np.linalg.eigvals(discrete_monodromy(acl[:, REGULATED][:, :, REGULATED], times))
+    return mu[np.argsort(-np.abs(mu), kind="stable")]
+
+
+__all__ = [
+    "DEFAULT_STATE_WEIGHTS",
+    "DEFAULT_TORQUE_SCALE",
+    "JOINT_STATES",
+    "DesignInfo",
+    "design_controller",
+    "joint_feedback_multipliers",
+]

@@ -1,0 +1,122 @@
+"""Closed-loop simulation machinery: controller inside the integrator, events, belt, seeds."""
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+import scipy.optimize
+
+from colloc.gait.closed_loop import _crossing, perturbation_belt_speed, simulate_walking
+from colloc.gait.cycle import WalkingCycle
+from colloc.gait.design import JOINT_STATES, design_controller
+from colloc.gait.orbit import GaitDynamics
+
+BELT_FILE = (
+    Path(__file__).resolve().parents[3]
+    / "shared/data/treadmill-belt-perturbation-unloaded/RandomSlowSpeed1.txt"
+)
+
+
+@pytest.fixture(scope="module")
+def dyn() -> GaitDynamics:
+    return GaitDynamics.build()
+
+
+@pytest.fixture(scope="module")
+def standing(dyn) -> WalkingCycle:
+    def accel(z):
+        return np.asarray(dyn.rhs(_state(z), z[1:7], 0.0)).ravel()[9:]
+
+    z = scipy.optimize.least_squares(accel, np.r_[0.93, np.zeros(7)]).x
+    x = _state(z)
+    return WalkingCycle(
+        times=np.linspace(0, 1.0, 11),
+        states=np.repeat(x[None], 11, 0),
+        torques=np.repeat(z[None, 1:7], 11, 0),
+        contact_forces=np.repeat(np.asarray(dyn.contact_forces(x, 0.0)).T, 11, 0),
+        belt_speed=0.0,
+        duration=1.0,
+    )
+
+
+def _state(z):
+    x = np.zeros(18)
+    x[1] = z[0]
+    x[3:9] = [0.1, -0.1, z[7], 0.1, -0.1, z[7]]
+    return x
+
+
+@pytest.fixture(scope="module")
+def controller(dyn, standing):
+    return design_controller(standing, 8, dynamics=dyn)
+
+
+def test_equilibrium_stays_put_and_carries_body_weight(dyn, standing, controller):
+    _, Tstar, K, _ = controller
+    rec = simulate_walking(standing, Tstar, K, 0.5, dynamics=dyn)
+    assert not rec.fell
+    np.testing.assert_allclose(
+        rec.states, np.repeat(standing.states[:1], rec.times.size, 0), atol=1e-6
+    )
+    weight = dyn.gait.total_mass.subs(dyn.constants) * 9.81
+    np.testing.assert_allclose(rec.vertical_grf.sum(1), float(weight), rtol=1e-6)
+    np.testing.assert_allclose(rec.phase, np.minimum(rec.times / standing.duration, 1.0))
+
+
+def test_recorded_torques_follow_the_gain_scheduled_law(dyn, standing, controller):
+    ctrl, Tstar, K, _ = controller
+    x0 = standing.states[0].copy()
+    x0[12:18] += [0.2, -0.2, 0.1, -0.1, 0.2, 0.0]
+    rec = simulate_walking(standing, Tstar, K, 0.2, dynamics=dyn, initial_state=x0)
+    expected = ctrl.torque(rec.phase, rec.states[:, JOINT_STATES], Tstar, K)
+    np.testing.assert_allclose(rec.torques, expected, rtol=1e-9, atol=1e-9)
+    # The states move (the check above is not on a constant record).
+    assert np.ptp(rec.states[:, 12]) > 0.05
+
+
+def test_seeded_motor_noise_is_reproducible(dyn, standing, controller):
+    _, Tstar, K, _ = controller
+    runs = [
+        simulate_walking(standing, Tstar, K, 0.1, dynamics=dyn, seed=s, torque_noise=2.0)
+        for s in (5, 5, 6)
+    ]
+    np.testing.assert_array_equal(runs[0].states, runs[1].states)
+    assert np.abs(runs[0].states - runs[2].states).max() > 1e-6
+
+
+def test_threshold_crossing_is_interpolated():
+    assert _crossing(1.0, 1.01, 5.0, 45.0, 25.0) == pytest.approx(1.005)
+    assert _crossing(1.0, 1.01, 30.0, 45.0, 25.0) is None
+    assert _crossing(1.0, 1.01, 45.0, 5.0, 25.0) is None
+
+
+def test_perturbation_record_is_rescaled_and_continued_mirrored():
+    t, v = perturbation_belt_speed(BELT_FILE, 1.0, 800.0)
+    assert t[-1] == pytest.approx(800.0) and np.diff(t) == pytest.approx(0.01)
+    first = v[t <= 349.99]
+    assert first.mean() == pytest.approx(1.0, abs=0.01)
+    # Mirrored continuation: no jump where the record ends, and v(L + d) == v(L - d).
+    length = 349.995
+    np.testing.assert_allclose(
+        np.interp(length + 3.0, t, v), np.interp(length - 3.0, t, v), atol=5e-3
+    )
+    assert np.abs(np.diff(v)).max() < 0.1
+
+
+def test_bad_arguments_are_all_reported(standing):
+    with pytest.raises(ValueError, match=r"K: expected shape \(4, 6, n_s\).*duration: expected"):
+        simulate_walking(standing, np.zeros((4, 6)), np.zeros((3, 6, 12)), -1.0)
+    with pytest.raises(ValueError, match="K: has 11 gain columns but feedback names 12 states"):
+        simulate_walking(standing, np.zeros((4, 6)), np.zeros((4, 6, 11)), 1.0)
+    with pytest.raises(ValueError, match=r"belt_speed: expected samples covering \[0, 5"):
+        simulate_walking(
+            standing,
+            np.zeros((4, 6)),
+            np.zeros((4, 6, 12)),
+            5.0,
+            belt_speed=(np.array([0.0, 1.0]), np.array([1.0, 1.0])),
+        )
+    with pytest.raises(ValueError, match="torque_noise: expected a non-negative"):
+        simulate_walking(standing, np.zeros((4, 6)), np.zeros((4, 6, 12)), 1.0, torque_noise=-1)
+    with pytest.raises(ValueError, match="duration: expected a positive number"):
+        perturbation_belt_speed(BELT_FILE, 1.2, 0.0)

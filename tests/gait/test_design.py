@@ -1,0 +1,117 @@
+"""Linearisation along a cycle (vs finite differences) and the controller design."""
+
+import numpy as np
+import pytest
+import scipy.optimize
+
+from colloc.gait.cycle import WalkingCycle
+from colloc.gait.design import JOINT_STATES, design_controller, joint_feedback_multipliers
+from colloc.gait.orbit import GaitDynamics, cycle_linearization
+from colloc.models.gait2d_params import load_parameters
+
+
+@pytest.fixture(scope="module")
+def dyn() -> GaitDynamics:
+    return GaitDynamics.build()
+
+
+@pytest.fixture(scope="module")
+def standing(dyn) -> WalkingCycle:
+    """Quiet standing on a belt at rest: a (trivially) periodic cycle."""
+
+    def accel(z):
+        x = standing_state(z)
+        return np.asarray(dyn.rhs(x, z[1:7], 0.0)).ravel()[9:]
+
+    z = scipy.optimize.least_squares(accel, np.r_[0.93, np.zeros(7)]).x
+    x = standing_state(z)
+    num, duration = 21, 1.0
+    return WalkingCycle(
+        times=np.linspace(0, duration, num),
+        states=np.repeat(x[None], num, 0),
+        torques=np.repeat(z[None, 1:7], num, 0),
+        contact_forces=np.repeat(np.asarray(dyn.contact_forces(x, 0.0)).T, num, 0),
+        belt_speed=0.0,
+        duration=duration,
+    )
+
+
+def standing_state(z):
+    x = np.zeros(18)
+    x[1] = z[0]
+    x[3:9] = [0.1, -0.1, z[7], 0.1, -0.1, z[7]]
+    return x
+
+
+def numpy_rhs(dyn):
+    """Independent explicit dynamics from the SymPy lambdified M and f."""
+    mf = dyn.gait.dynamics_function()
+    p = dyn.gait.constant_array(load_parameters())
+
+    def f(x, torque, v):
+        mass, forcing = mf(x[:9], x[9:], torque, v, p)
+        return np.r_[x[9:], np.linalg.solve(mass, forcing)]
+
+    return f
+
+
+def test_linearization_matches_central_differences(dyn):
+    rng = np.random.default_rng(3)
+    f = numpy_rhs(dyn)
+    for _ in range(3):
+        x = np.r_[0.0, 0.92, 0.05 * rng.standard_normal(7), 0.3 * rng.standard_normal(9)]
+        torque, v = 20 * rng.standard_normal(6), 1.2
+        A, B = dyn.linearize(x[None], torque[None], v)
+        h = 1e-6
+        A_fd = np.column_stack(
+            [(f(x + h * e, torque, v) - f(x - h * e, torque, v)) / (2 * h) for e in np.eye(18)]
+        )
+        B_fd = np.column_stack(
+            [(f(x, torque + h * e, v) - f(x, torque - h * e, v)) / (2 * h) for e in np.eye(6)]
+        )
+        np.testing.assert_allclose(A[0], A_fd, rtol=1e-5, atol=1e-5 * np.abs(A_fd).max())
+        np.testing.assert_allclose(B[0], B_fd, rtol=1e-5, atol=1e-6 * np.abs(B_fd).max())
+        np.testing.assert_allclose(
+            np.asarray(dyn.rhs(x, torque, v)).ravel(), f(x, torque, v), rtol=1e-9, atol=1e-9
+        )
+
+
+def test_standing_cycle_is_an_equilibrium_and_hip_x_is_neutral(dyn, standing):
+    t, A, B = cycle_linearization(dyn, standing)
+    assert np.abs(np.asarray(dyn.rhs(standing.states[0], standing.torques[0], 0.0))).max() < 1e-8
+    # Nothing depends on the hip's forward position: its column of A is zero.
+    assert np.abs(A[:, :, 0]).max() == 0.0
+
+
+def test_design_on_standing_reproduces_cycle_torque_and_constant_gains(dyn, standing):
+    ctrl, Tstar, K, info = design_controller(standing, 8, dynamics=dyn)
+    assert Tstar.shape == (8, 6) and K.shape == (8, 6, 12)
+    s = standing.states[0, JOINT_STATES]
+    # On the cycle the controller gives the cycle's torque.
+    np.testing.assert_allclose(ctrl.torque(0.3, s, Tstar, K)[0], standing.torques[0], atol=1e-8)
+    # A constant cycle gives constant gains, and the full-state LQR loop is stable.
+    np.testing.assert_allclose(K, np.repeat(K[:1], 8, 0), rtol=1e-6, atol=1e-6)
+    assert np.max(np.abs(info.lqr_multipliers)) < 1.0
+    # The restricted-gain multipliers agree with the eigenvalues of the constant closed loop.
+    t, A, B = cycle_linearization(dyn, standing)
+    full = np.zeros((6, 18))
+    full[:, JOINT_STATES] = K[0]
+    acl = (A[0] - B[0] @ full)[1:, 1:]
+    expected = np.exp(np.linalg.eigvals(acl) * standing.duration)
+    # Products of stiff matrix exponentials carry ~1e-4 round-off on tiny multipliers.
+    np.testing.assert_allclose(
+        np.sort(np.abs(info.multipliers)), np.sort(np.abs(expected)), rtol=1e-3, atol=1e-4
+    )
+    again = joint_feedback_multipliers(t, A, B, K)
+    np.testing.assert_allclose(np.abs(again), np.abs(info.multipliers))
+
+
+def test_design_argument_errors(dyn, standing):
+    with pytest.raises(ValueError, match=r"Q: expected shape \(18, 18\).*R: expected shape"):
+        design_controller(standing, 8, Q=np.eye(3), R=np.eye(2), dynamics=dyn)
+    with pytest.raises(ValueError, match="num_points: expected an integer >= 2"):
+        design_controller(standing, 1, dynamics=dyn)
+    with pytest.raises(ValueError, match="num_samples: expected an integer >= 3"):
+        cycle_linearization(dyn, standing, 2)
+    with pytest.raises(ValueError, match=r"states, torques: expected shapes"):
+        dyn.linearize(np.zeros((2, 17)), np.zeros((2, 6)), 0.0)

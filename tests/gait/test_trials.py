@@ -1,0 +1,411 @@
+"""Walking record -> gait-lab trial: column mapping, seeded noise, metadata round trip."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+import pytest
+
+from colloc.data.columns import (
+    JOINT_ANGLE_COLUMNS,
+    JOINT_RATE_COLUMNS,
+    SIGNAL_COLUMNS,
+    TORQUE_COLUMNS,
+)
+from colloc.data.trial import read_trial
+from colloc.gait.trials import (
+    DEFAULT_NOISE_STD,
+    NOISE_GROUPS,
+    controller_from_metadata,
+    controller_metadata,
+    record_to_trial,
+    resolve_noise_std,
+    synthetic_metadata,
+    true_signals,
+)
+
+PERIOD = 1.1
+
+
+@dataclass
+class FakeRecord:
+    times: np.ndarray
+    states: np.ndarray
+    torques: np.ndarray
+    belt_speed: np.ndarray
+    belt_position: np.ndarray
+    right_heel_strikes: np.ndarray
+    left_heel_strikes: np.ndarray
+
+
+def make_record(duration: float = 6.0, step: float = 0.005) -> FakeRecord:
+    times = np.arange(round(duration / step) + 1) * step
+    w = 2 * np.pi / PERIOD
+    # Column i of q is a distinct sinusoid, u its exact derivative.
+    amplitude = 0.1 * (1 + np.arange(9))
+    offset = np.array([0.2, 0.95, 0.05, 0.1, -0.3, 0.0, -0.1, -0.2, 0.05])
+    q = offset + amplitude * np.sin(w * times[:, None] + np.arange(9))
+    u = amplitude * w * np.cos(w * times[:, None] + np.arange(9))
+    torques = 10.0 * np.cos(w * times[:, None] + 0.5 * np.arange(6))
+    belt_speed = 1.2 + 0.1 * np.sin(3.0 * times)
+    belt_position = 1.2 * times + 0.1 * (1 - np.cos(3.0 * times)) / 3.0
+    right = np.arange(0.3, duration + 1.0, PERIOD)  # the last one lies beyond the record
+    left = right[:-1] + PERIOD / 2
+    return FakeRecord(times, np.hstack([q, u]), torques, belt_speed, belt_position, right, left)
+
+
+def make_controller(num_points: int = 4) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    rng = np.random.default_rng(7)
+    mask = np.zeros((6, 12), dtype=bool)
+    mask[np.arange(6), np.arange(6)] = True
+    mask[np.arange(6), 6 + np.arange(6)] = True
+    K = np.where(mask, rng.normal(size=(num_points, 6, 12)), 0.0)
+    return rng.normal(size=(num_points, 6)) * 30.0, K, mask
+
+
+def test_true_signals_map_states_to_canonical_columns():
+    record = make_record()
+    time, frame = true_signals(record)
+    q, u = record.states[:, :9], record.states[:, 9:]
+    assert list(frame.columns) == list(SIGNAL_COLUMNS)
+    np.testing.assert_array_equal(time, record.times)
+    # Right hip/knee/ankle = qb, qc, qd; left = qe, qf, qg (gait2d order).
+    for i, name in enumerate(JOINT_ANGLE_COLUMNS):
+        np.testing.assert_array_equal(frame[name], q[:, 3 + i])
+    for i, name in enumerate(JOINT_RATE_COLUMNS):
+        np.testing.assert_array_equal(frame[name], u[:, 3 + i])
+    np.testing.assert_array_equal(frame["trunk_x"], q[:, 0])
+    np.testing.assert_array_equal(frame["trunk_y"], q[:, 1])
+    np.testing.assert_array_equal(frame["trunk_angle"], q[:, 2])
+    np.testing.assert_array_equal(frame["belt_speed"], record.belt_speed)
+    np.testing.assert_array_equal(frame["belt_position"], record.belt_position)
+    for i, name in enumerate(TORQUE_COLUMNS):
+        np.testing.assert_array_equal(frame[name], record.torques[:, i])
+
+
+def test_noise_free_trial_resamples_at_the_sample_rate():
+    record = make_record()
+    trial = record_to_trial(record, noise_std=0.0, seed=0, sample_rate=100.0)
+    np.testing.assert_allclose(trial.time, np.arange(601) * 0.01, atol=1e-12)
+    q = record.states[:, :9]
+    # Record step 5 ms, so every 100 Hz sample is a record sample: interpolation is exact.
+    np.testing.assert_allclose(trial.signals["right_knee_angle"], q[::2, 4], atol=1e-12)
+    # Strikes after the last sample (6 s) are dropped: right 6.9 s, left 6.35 s.
+    np.testing.assert_allclose(trial.right_heel_strikes, 0.3 + 1.1 * np.arange(6))
+    np.testing.assert_allclose(trial.left_heel_strikes, 0.85 + 1.1 * np.arange(5))
+    assert trial.metadata["sample_rate"] == 100.0
+
+
+def test_noise_has_the_requested_std_and_is_seeded():
+    record = make_record(duration=60.0, step=0.01)
+    std = {"joint_angle": 0.01, "belt_speed": 0.002, "joint_torque": 0.0}
+    trial = record_to_trial(record, noise_std=std, seed=3, sample_rate=None)
+    _, truth = true_signals(record)
+    error = trial.signals - truth
+    # 6 columns x 6001 samples: the sample sd is within ~1 % of the true sd.
+    assert np.std(error[list(JOINT_ANGLE_COLUMNS)].to_numpy()) == pytest.approx(0.01, rel=0.03)
+    assert np.std(error["belt_speed"].to_numpy()) == pytest.approx(0.002, rel=0.06)
+    expected_rate = DEFAULT_NOISE_STD["joint_rate"]
+    assert np.std(error[list(JOINT_RATE_COLUMNS)].to_numpy()) == pytest.approx(
+        expected_rate, rel=0.03
+    )
+    np.testing.assert_array_equal(error[list(TORQUE_COLUMNS)].to_numpy(), 0.0)
+    # Independent columns: correlation between two angle noises is ~0 (|r| < 4 / sqrt(M)).
+    r = np.corrcoef(error["right_hip_angle"], error["left_hip_angle"])[0, 1]
+    assert abs(r) < 4 / math.sqrt(error.shape[0])
+    again = record_to_trial(record, noise_std=std, seed=3, sample_rate=None)
+    np.testing.assert_array_equal(again.signals.to_numpy(), trial.signals.to_numpy())
+    other = record_to_trial(record, noise_std=std, seed=4, sample_rate=None)
+    assert not np.allclose(other.signals["right_hip_angle"], trial.signals["right_hip_angle"])
+    assert trial.metadata["noise"]["seed"] == 3
+    assert trial.metadata["noise"]["std"]["joint_angle"] == 0.01
+
+
+def test_resolve_noise_std_scales_and_overrides():
+    assert resolve_noise_std(None) == DEFAULT_NOISE_STD
+    doubled = resolve_noise_std(2.0)
+    assert doubled["joint_angle"] == pytest.approx(2 * math.radians(0.25))
+    assert doubled["trunk_position"] == pytest.approx(0.002)
+    custom = resolve_noise_std({"trunk_position": 0.003})
+    assert custom["trunk_position"] == 0.003
+    assert custom["joint_angle"] == DEFAULT_NOISE_STD["joint_angle"]
+    assert set(custom) == set(NOISE_GROUPS)
+
+
+def test_resolve_noise_std_errors():
+    with pytest.raises(ValueError, match=r"unknown group 'knee'.*noise_std\['joint_rate'\]"):
+        resolve_noise_std({"knee": 0.1, "joint_rate": -1.0})
+    with pytest.raises(ValueError, match="non-negative finite multiple, found -1"):
+        resolve_noise_std(-1.0)
+    with pytest.raises(TypeError, match="noise_std: expected a number.*found str"):
+        resolve_noise_std("high")  # type: ignore[arg-type]
+
+
+def test_record_to_trial_errors():
+    record = make_record()
+    with pytest.raises(ValueError, match=r"seed: expected a non-negative int.*sample_rate"):
+        record_to_trial(record, seed=-1, sample_rate=0.0)
+    record.states = record.states[:, :9]
+    record.belt_speed = record.belt_speed.copy()
+    record.belt_speed[5] = np.nan
+    with pytest.raises(
+        ValueError, match=r"record.states: expected shape \(1201, 18\).*record.belt_speed: has 1"
+    ):
+        record_to_trial(record, seed=0)
+
+
+def test_written_trial_round_trips_with_the_true_controller(tmp_path):
+    record = make_record()
+    Tstar, K, mask = make_controller()
+    metadata = synthetic_metadata(
+        controller=controller_metadata(Tstar, K, mask, structure="joint-isolated"),
+        cycle_speed=1.2,
+        cycle_duration=PERIOD,
+        body_mass=75.0,
+        height=1.8,
+        belt={"source": "RandomSlowSpeed1.txt", "mean_speed": 1.2, "deviation_scale": 1.0},
+        fell=False,
+        message="ok",
+    )
+    trial = record_to_trial(record, seed=11, metadata=metadata)
+    directory = trial.write(tmp_path / "trial")
+    back = read_trial(directory)
+    np.testing.assert_array_equal(back.time, trial.time)
+    np.testing.assert_array_equal(back.signals[list(SIGNAL_COLUMNS)], trial.signals)
+    np.testing.assert_array_equal(back.right_heel_strikes, trial.right_heel_strikes)
+    np.testing.assert_array_equal(back.left_heel_strikes, trial.left_heel_strikes)
+    Tstar_back, K_back, mask_back = controller_from_metadata(back.metadata)
+    np.testing.assert_array_equal(Tstar_back, Tstar)
+    np.testing.assert_array_equal(K_back, K)
+    np.testing.assert_array_equal(mask_back, mask)
+    assert back.metadata["controller"]["num_points"] == 4
+    assert back.metadata["controller"]["feedback"][:2] == ["right_hip_angle", "right_knee_angle"]
+    assert back.metadata["body_mass"] == 75.0 and back.metadata["height"] == 1.8
+    assert back.metadata["cycle"] == {"speed": 1.2, "duration": PERIOD}
+    assert back.metadata["belt"]["source"] == "RandomSlowSpeed1.txt"
+    assert back.metadata["noise"]["std"] == pytest.approx(DEFAULT_NOISE_STD)
+    assert back.metadata["package_versions"]["numpy"] == np.__version__
+    # The noise-free truth is not in the file.
+    _, truth = true_signals(record)
+    assert not np.allclose(back.signals["right_hip_angle"], truth["right_hip_angle"][::2])
+
+
+def test_controller_metadata_errors():
+    Tstar, K, mask = make_controller()
+    with pytest.raises(ValueError, match=r"K: expected shape \(4, 6, 12\).*mask: expected a bool"):
+        controller_metadata(Tstar, K[:, :, :6], mask.astype(int))
+    K_bad = K.copy()
+    K_bad[0, 0, 5] = 1.0
+    with pytest.raises(ValueError, match="nonzero gains outside mask"):
+        controller_metadata(Tstar, K_bad, mask)
+    with pytest.raises(KeyError, match=r"'controller' mapping with \['Tstar', 'K', 'mask'\]"):
+        controller_from_metadata({"body_mass": 75.0})
+
+
+# --------------------------------------------------------------------------- workflow
+
+
+def fake_pipeline(monkeypatch, calls):
+    """Replace the expensive steps by synthetic stand-ins that log their arguments."""
+    from colloc.control.gain_scheduled import joint_isolated_mask
+    from colloc.gait.closed_loop import ClosedLoopRecord
+    from colloc.gait.cycle import WalkingCycle
+
+    Tstar, K, mask = make_controller()
+
+    def find_walking_cycle(speed, **kwargs):
+        calls.append(("cycle", speed, kwargs))
+        times = np.linspace(0.0, PERIOD, 21)
+        return WalkingCycle(
+            times, np.zeros((21, 18)), np.zeros((21, 6)), np.zeros((21, 8)), speed, PERIOD
+        )
+
+    def design_controller(cycle, num_points, **kwargs):
+        calls.append(("design", num_points, kwargs))
+
+        class Controller:
+            pass
+
+        controller = Controller()
+        controller.mask = joint_isolated_mask(6)
+        return controller, Tstar, K, None
+
+    def simulate_walking(cycle, Tstar_, K_, duration, belt_speed, **kwargs):
+        calls.append(("simulate", duration, belt_speed, kwargs))
+        fake = make_record(duration=duration, step=0.01)
+        forces = np.column_stack([np.sin(fake.times + k) for k in range(8)])
+        return ClosedLoopRecord(
+            fake.times,
+            fake.states,
+            fake.torques,
+            forces,
+            fake.belt_speed,
+            fake.belt_position,
+            fake.right_heel_strikes[fake.right_heel_strikes <= duration],
+            fake.left_heel_strikes[fake.left_heel_strikes <= duration],
+            fake.times / PERIOD,
+            False,
+            "walked the whole duration",
+        )
+
+    class Dynamics:
+        @staticmethod
+        def build(params):
+            calls.append(("dynamics", params.body_mass))
+            return "dynamics"
+
+    import colloc.gait.workflow as workflow
+
+    monkeypatch.setattr(workflow, "find_walking_cycle", find_walking_cycle)
+    monkeypatch.setattr(workflow, "design_controller", design_controller)
+    monkeypatch.setattr(workflow, "simulate_walking", simulate_walking)
+    monkeypatch.setattr(workflow, "GaitDynamics", Dynamics)
+    return Tstar, K
+
+
+def test_settings_report_every_bad_field_before_any_work(monkeypatch, tmp_path):
+    from colloc.gait.workflow import GaitSimulationSettings, simulate_trial
+
+    calls: list = []
+    fake_pipeline(monkeypatch, calls)
+    a_file = tmp_path / "file.txt"
+    a_file.write_text("x")
+    settings = GaitSimulationSettings(
+        duration=-1.0, speed=float("nan"), seed=-2, out=a_file, num_points=1,
+        noise={"knee": 1.0}, sample_rate=0, cache=3, body_mass=0, height=-1.8,
+        perturbed=True, belt_record=tmp_path / "missing.txt", motor_noise=-1.0,
+        structure="diagonal", animation_seconds=0,
+    )  # fmt: skip
+    expected = [
+        "duration", "speed", "sample_rate", "body_mass", "height", "animation_seconds",
+        "motor_noise", "seed", "num_points", "noise: noise_std: unknown group 'knee'", "cache",
+        "structure", "out: expected a directory, found an existing file", "belt_record",
+    ]  # fmt: skip
+    problems = settings.problems()
+    assert len(problems) == len(expected)
+    for name, problem in zip(expected, problems, strict=True):
+        assert problem.startswith(name), (name, problem)
+    with pytest.raises(ValueError, match=r"(?s)invalid gait simulation settings.*duration.*belt"):
+        simulate_trial(settings)
+    assert calls == []
+    assert GaitSimulationSettings(perturbed=False).problems() == []
+
+
+def test_belt_input_from_the_measured_record():
+    from colloc.gait.workflow import GaitSimulationSettings, belt_input
+
+    settings = GaitSimulationSettings(duration=400.0, speed=1.0)
+    (times, speed), description = belt_input(settings)
+    # Shifted to the new mean, deviations unchanged (record: mean 1.200, sd 0.097 m/s).
+    assert times[0] == 0.0 and times[-1] == pytest.approx(400.0)
+    assert np.mean(speed[times <= 349.99]) == pytest.approx(1.0, abs=2e-3)
+    assert np.std(speed[times <= 349.99]) == pytest.approx(description["record_std_speed"], 0.01)
+    assert description["record_mean_speed"] == pytest.approx(1.2, abs=1e-3)
+    assert description["source"].endswith("RandomSlowSpeed1.txt")
+    constant, described = belt_input(GaitSimulationSettings(perturbed=False, speed=1.3))
+    assert constant is None and described == {"source": "constant", "mean_speed": 1.3}
+
+
+def test_simulate_trial_writes_a_complete_output(monkeypatch, tmp_path):
+    import json
+
+    from colloc.gait.cycle import WalkingCycle
+    from colloc.gait.workflow import GaitSimulationSettings, motor_seed, simulate_trial
+
+    calls: list = []
+    Tstar, K = fake_pipeline(monkeypatch, calls)
+    out = tmp_path / "out"
+    out.mkdir()
+    (out / "notes.txt").write_text("mine")  # not ours: must survive
+    steps = []
+    settings = GaitSimulationSettings(
+        duration=6.0, speed=1.1, seed=5, out=out, num_points=4, animation_seconds=0.5,
+        structure="joint-isolated", body_mass=70.0, motor_noise=2.0, cache=False,
+    )  # fmt: skip
+    result = simulate_trial(settings, progress=lambda step, detail: steps.append(step))
+    assert steps == ["cycle", "design", "simulate", "trial", "figures", "animation"]
+    assert calls[0][0] == "cycle" and calls[0][2]["cache"] is False
+    assert calls[0][2]["params"].body_mass == 70.0
+    simulate = next(c for c in calls if c[0] == "simulate")
+    assert simulate[1] == 6.0 and simulate[2][0][-1] == pytest.approx(6.0)
+    assert simulate[3]["dynamics"] == "dynamics" and simulate[3]["torque_noise"] == 2.0
+    assert simulate[3]["seed"] == motor_seed(5) != 5
+    assert sorted(p.name for p in out.iterdir()) == [
+        "contact_forces.png", "cycle.npz", "joint_angles.png", "notes.txt", "summary.json",
+        "trial", "walking.gif",
+    ]  # fmt: skip
+    assert set(result.files) == {
+        "trial",
+        "cycle",
+        "joint_angles",
+        "contact_forces",
+        "animation",
+        "summary",
+    }
+    summary = json.loads((out / "summary.json").read_text())
+    record = make_record(duration=6.0, step=0.01)
+    assert summary["fell"] is False and result.fell is False
+    # Right strikes 0.3 + 1.1 k <= 6 s: k = 0..5, 5 strides; left 0.85 + 1.1 k: 5 strikes.
+    assert summary["strides"] == {"right": 5, "left": 4}
+    hip = record.states[:, 1]
+    assert summary["hip_height_range"] == pytest.approx([hip.min(), hip.max()])
+    assert set(summary["wall_times"]) == set(steps)
+    assert summary["notes"] == []
+    trial = read_trial(out / "trial")
+    Tstar_back, K_back, _ = controller_from_metadata(trial.metadata)
+    np.testing.assert_array_equal(Tstar_back, Tstar)
+    np.testing.assert_array_equal(K_back, K)
+    assert trial.metadata["controller"]["phase_convention"].startswith("causal")
+    assert trial.metadata["body_mass"] == 70.0
+    assert trial.metadata["noise"]["seed"] == 5
+    assert trial.metadata["belt"]["source"].endswith("RandomSlowSpeed1.txt")
+    assert WalkingCycle.from_npz(out / "cycle.npz").duration == PERIOD
+    assert (out / "notes.txt").read_text() == "mine"
+
+
+def test_a_failure_leaves_the_previous_output_untouched(monkeypatch, tmp_path):
+    import colloc.gait.workflow as workflow
+    from colloc.gait.workflow import GaitSimulationSettings, simulate_trial
+
+    fake_pipeline(monkeypatch, [])
+    out = tmp_path / "out"
+    settings = GaitSimulationSettings(duration=3.0, out=out, animation_seconds=0.2, seed=1)
+    simulate_trial(settings)
+    before = {p.name: p.stat().st_mtime_ns for p in out.rglob("*")}
+    old_trial = (out / "trial" / "trial.csv").read_bytes()
+
+    def broken(*args, **kwargs):
+        raise RuntimeError("disk full")
+
+    monkeypatch.setattr(workflow, "write_animation", broken)
+    with pytest.raises(RuntimeError, match="disk full"):
+        simulate_trial(GaitSimulationSettings(duration=3.0, out=out, seed=2))
+    assert {p.name: p.stat().st_mtime_ns for p in out.rglob("*")} == before
+    assert (out / "trial" / "trial.csv").read_bytes() == old_trial
+
+
+def test_controller_phase_is_kept_noise_free_when_the_record_has_one(tmp_path):
+    from dataclasses import dataclass as _dc
+
+    from colloc.gait.trials import CONTROLLER_PHASE_COLUMN
+
+    base = make_record(duration=3.0)
+
+    @_dc
+    class WithPhase(FakeRecord):
+        phase: np.ndarray = None  # type: ignore[assignment]
+
+    phase = (base.times - 0.3) / PERIOD  # unwrapped, cycles
+    record = WithPhase(**base.__dict__, phase=phase)
+    trial = record_to_trial(record, seed=1, sample_rate=100.0)
+    expected = np.interp(trial.time, record.times, phase)
+    np.testing.assert_allclose(trial.signals[CONTROLLER_PHASE_COLUMN], expected, atol=1e-12)
+    assert CONTROLLER_PHASE_COLUMN not in record_to_trial(base, seed=1).signals
+    # the extra column survives writing and reading the trial
+    from colloc.data import read_trial
+
+    trial.write(tmp_path / "t")
+    back = read_trial(tmp_path / "t")
+    np.testing.assert_allclose(back.signals[CONTROLLER_PHASE_COLUMN], expected, atol=1e-9)
