@@ -147,13 +147,13 @@ def to_state_space(
 
 def format_value(value: Any) -> str:
     """Short text of a value for messages: 6 significant digits for real numbers."""
-    expr = sm.sympify(value)
+    expr = sm.sympify(value, strict=True)
     return f"{complex(expr.evalf()).real:.6g}" if expr.is_number and expr.is_real else str(expr)
 
 
 def is_nonzero(value: Any, tol: float) -> bool:
     """True when a number exceeds ``tol`` in magnitude, or an expression does not simplify to 0."""
-    expr = sm.sympify(value)
+    expr = sm.sympify(value, strict=True)
     if expr.is_number:
         return bool(abs(complex(expr.evalf())) > tol)
     return sm.simplify(expr) != 0

@@ -419,7 +419,7 @@ def _complete(
             )
     for v in zero_derivs + inputs:
         point.setdefault(v, sm.Integer(0))
-    done = {k: sm.sympify(v).xreplace(const) for k, v in point.items()}
+    done = {k: sm.sympify(v, strict=True).xreplace(const) for k, v in point.items()}
     return {**const, **done}
 
 

@@ -22,7 +22,9 @@ def is_numeric(mat: Matrix) -> bool:
     """True when every entry of ``mat`` is a finite number (no symbols, no functions of time)."""
     if isinstance(mat, np.ndarray):
         return bool(np.all(np.isfinite(mat)))
-    return all(sm.sympify(e).is_number and sm.sympify(e).is_finite for e in mat)
+    return all(
+        sm.sympify(e, strict=True).is_number and sm.sympify(e, strict=True).is_finite for e in mat
+    )
 
 
 def to_array(mat: Matrix) -> np.ndarray:
