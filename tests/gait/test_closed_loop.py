@@ -6,7 +6,12 @@ import numpy as np
 import pytest
 import scipy.optimize
 
-from colloc.gait.closed_loop import _crossing, perturbation_belt_speed, simulate_walking
+from colloc.gait.closed_loop import (
+    _crossing,
+    perturbation_belt_speed,
+    simulate_walking,
+    strike_phase,
+)
 from colloc.gait.cycle import WalkingCycle
 from colloc.gait.design import JOINT_STATES, design_controller
 from colloc.gait.orbit import GaitDynamics
@@ -88,6 +93,21 @@ def test_threshold_crossing_is_interpolated():
     assert _crossing(1.0, 1.01, 5.0, 45.0, 25.0) == pytest.approx(1.005)
     assert _crossing(1.0, 1.01, 30.0, 45.0, 25.0) is None
     assert _crossing(1.0, 1.01, 45.0, 5.0, 25.0) is None
+
+
+def test_strike_phase_is_where_the_detector_fires_on_the_cycle(standing):
+    # Right foot: unloaded, then a ramp from 0 to 800 N between nodes 2 and 3 (t = 0.2, 0.3
+    # of a 1 s stride), so the 100 N crossing is at t = 0.2 + 0.1 * 100 / 800; an earlier
+    # graze below the threshold (60 N at node 1) does not count.
+    forces = np.zeros((11, 8))
+    forces[:, 1] = [0.0, 60.0, 0.0] + [800.0] * 8
+    cycle = WalkingCycle(
+        standing.times, standing.states, standing.torques, forces, 0.0, standing.duration
+    )
+    assert strike_phase(cycle, 100.0) == pytest.approx(0.2 + 0.1 / 8)
+    assert strike_phase(cycle, 50.0) == pytest.approx(0.1 * 50 / 60)
+    # Never crossed (the standing fixture is loaded throughout): phase 0.
+    assert strike_phase(standing, 100.0) == 0.0
 
 
 def test_perturbation_record_is_rescaled_and_continued_mirrored():

@@ -207,7 +207,12 @@ def test_controller_metadata_errors():
 # --------------------------------------------------------------------------- workflow
 
 
-def fake_pipeline(monkeypatch, calls):
+@dataclass
+class FakeDesignInfo:
+    spectral_radius: float
+
+
+def fake_pipeline(monkeypatch, calls, spectral_radius=0.5):
     """Replace the expensive steps by synthetic stand-ins that log their arguments."""
     from colloc.control.gain_scheduled import joint_isolated_mask
     from colloc.gait.closed_loop import ClosedLoopRecord
@@ -230,7 +235,7 @@ def fake_pipeline(monkeypatch, calls):
 
         controller = Controller()
         controller.mask = joint_isolated_mask(6)
-        return controller, Tstar, K, None
+        return controller, Tstar, K, FakeDesignInfo(spectral_radius)
 
     def simulate_walking(cycle, Tstar_, K_, duration, belt_speed, **kwargs):
         calls.append(("simulate", duration, belt_speed, kwargs))
@@ -291,6 +296,30 @@ def test_settings_report_every_bad_field_before_any_work(monkeypatch, tmp_path):
         simulate_trial(settings)
     assert calls == []
     assert GaitSimulationSettings(perturbed=False).problems() == []
+
+
+@pytest.mark.parametrize("radius", [1.0, 314.0, float("nan")])
+def test_an_unstable_design_is_refused_before_simulating(monkeypatch, tmp_path, radius):
+    from colloc.gait.workflow import (
+        GaitSimulationSettings,
+        UnstableControllerError,
+        simulate_trial,
+    )
+
+    calls: list = []
+    fake_pipeline(monkeypatch, calls, spectral_radius=radius)
+    out = tmp_path / "out"
+    settings = GaitSimulationSettings(duration=3.0, out=out, perturbed=False, num_points=7)
+    with pytest.raises(
+        UnstableControllerError,
+        match=r"expected a stabilising design \(Floquet spectral radius < 1\), found "
+        r"(1|314|nan) .*P = 7 schedule points.*nothing was simulated",
+    ):
+        simulate_trial(settings)
+    assert [c[0] for c in calls] == ["cycle", "dynamics", "design"]
+    assert not out.exists()
+    # A ValueError, so the CLI reports it as an error message, not a traceback.
+    assert issubclass(UnstableControllerError, ValueError)
 
 
 def test_belt_input_from_the_measured_record():

@@ -37,7 +37,7 @@ import numpy as np
 from colloc.data.belt import read_belt_perturbation
 from colloc.gait.closed_loop import perturbation_belt_speed, simulate_walking
 from colloc.gait.cycle import find_walking_cycle
-from colloc.gait.design import design_controller
+from colloc.gait.design import JOINT_STATES, design_controller
 from colloc.gait.orbit import GaitDynamics
 from colloc.gait.outputs import (
     ANIMATION_FILE,
@@ -67,13 +67,27 @@ BELT_RECORD_ENV = "COLLOC_BELT_RECORD"
 
 #: How the simulated controller computes its phase (see colloc.gait.closed_loop).
 SIMULATION_PHASE = (
-    "causal, as a real-time controller: phi = 0 at each right heel strike detected online "
-    "(upward crossing of 25 N by the right foot's vertical floor force, known one sample "
-    "later), then rising linearly at the rate of the previous stride's duration (clipped to "
-    "0.7-1.3 times the cycle's; the first stride uses the cycle's duration) and holding at 1 "
+    "causal, as a real-time controller: at each right heel strike detected online (upward "
+    "crossing of 100 N by the right foot's vertical floor force, known one sample later) phi "
+    "is reset to phi_0, the phase at which the same detector fires on the designed cycle, "
+    "then rises linearly at the rate of the cycle's stride duration and holds at 1 + phi_0 "
     "until the next strike; schedule point p sits at phi = p / P, T* and K interpolated "
     "linearly and periodically in phi"
 )
+
+#: States fed back by the simulated controller (indices into ``[q, u]``): the joint angles
+#: and rates of the issue's controller.
+CONTROLLER_FEEDBACK: np.ndarray = JOINT_STATES
+#: Uniform samples of the stride at which the controller is designed. Finer than the cycle's
+#: nodes so that the gains change gradually through heel strike and toe-off; measured on a
+#: 60-node cycle with full-state feedback: at the nodes the closed loop lost a foot at the
+#: second heel strike, with 241 samples (and P = 120) it walked.
+DESIGN_SAMPLES = 241
+
+
+class UnstableControllerError(ValueError):
+    """The designed controller does not stabilise the walking cycle (Floquet radius >= 1)."""
+
 
 #: Gait-controller structures accepted by :attr:`GaitSimulationSettings.structure`.
 STRUCTURES: tuple[str, ...] = ("full", "joint-isolated")
@@ -320,6 +334,32 @@ def belt_input(
     return samples, description
 
 
+def check_stable(spectral_radius: float, settings: GaitSimulationSettings) -> None:
+    """Refuse a controller whose linearised closed loop is not stable.
+
+    Parameters
+    ----------
+    spectral_radius : float
+        Largest Floquet multiplier magnitude of the designed closed loop
+        (:attr:`colloc.gait.design.DesignInfo.spectral_radius`).
+    settings : GaitSimulationSettings
+        Named in the message.
+
+    Raises
+    ------
+    UnstableControllerError
+        If ``spectral_radius`` is not finite or is >= 1.
+    """
+    if not (math.isfinite(spectral_radius) and spectral_radius < 1.0):
+        raise UnstableControllerError(
+            f"controller: expected a stabilising design (Floquet spectral radius < 1), found "
+            f"{spectral_radius:.4g} for structure {settings.structure!r} with P = "
+            f"{settings.num_points} schedule points and feedback on states "
+            f"{CONTROLLER_FEEDBACK.tolist()}; the closed loop would fall, so nothing was "
+            "simulated (try more schedule points, or feedback on more states)"
+        )
+
+
 def simulate_trial(
     settings: GaitSimulationSettings, progress: Progress | None = None
 ) -> GaitSimulationResult:
@@ -340,6 +380,9 @@ def simulate_trial(
     ------
     ValueError
         If the settings are invalid (nothing is computed or written).
+    UnstableControllerError
+        If the designed controller's closed-loop Floquet spectral radius is >= 1 (the
+        simulation would fall; nothing is simulated or written).
     RuntimeError
         If the cycle cannot be found (from :func:`find_walking_cycle`).
     """
@@ -352,8 +395,14 @@ def simulate_trial(
     with clock.step("design", f"gain-scheduled controller, P = {settings.num_points}"):
         dynamics = GaitDynamics.build(params)
         controller, Tstar, K, info = design_controller(
-            cycle, settings.num_points, structure=settings.structure, dynamics=dynamics
+            cycle,
+            settings.num_points,
+            structure=settings.structure,
+            dynamics=dynamics,
+            num_samples=DESIGN_SAMPLES,
+            feedback=CONTROLLER_FEEDBACK,
         )
+    check_stable(info.spectral_radius, settings)
     with clock.step("simulate", f"{settings.duration} s of closed-loop walking"):
         record = simulate_walking(
             cycle,
@@ -365,6 +414,7 @@ def simulate_trial(
             seed=motor_seed(settings.seed),
             sample_rate=settings.sample_rate,
             torque_noise=settings.motor_noise,
+            feedback=CONTROLLER_FEEDBACK,
         )
     with clock.step("trial", f"trial with sensor noise at {settings.sample_rate} Hz"):
         metadata = synthetic_metadata(
