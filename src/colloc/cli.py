@@ -140,7 +140,7 @@ def build_parser() -> argparse.ArgumentParser:
     )
     sim.add_argument("--out", type=Path, default=Path("gait-simulation"), help="output directory")
     sim.add_argument(
-        "--points", type=_positive_int, default=50, help="schedule points P (default %(default)s)"
+        "--points", type=_positive_int, default=200, help="schedule points P (default %(default)s)"
     )
     sim.add_argument("--structure", default="full", help="gain structure: full or joint-isolated")
     sim.add_argument(

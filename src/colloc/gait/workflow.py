@@ -138,7 +138,7 @@ class GaitSimulationSettings:
     speed: float = 1.2
     seed: int = 0
     out: Path = Path("gait-simulation")
-    num_points: int = 50
+    num_points: int = 200
     noise: float | Mapping[str, float] = 1.0
     sample_rate: float = 100.0
     cache: bool | str | os.PathLike[str] = True
