@@ -5,7 +5,7 @@ from __future__ import annotations
 import argparse
 import sys
 import time
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from pathlib import Path
 
 STEPS = (
@@ -34,6 +34,22 @@ def _number(text: str) -> float:
         return float(text)
     except ValueError:
         raise argparse.ArgumentTypeError(f"expected a number, found {text!r}") from None
+
+
+def _report_problems(command: str, problems: list[str]) -> bool:
+    """Print every settings problem to stderr; True when there was any."""
+    for line in problems:
+        print(f"{command}: error: {line}", file=sys.stderr)
+    return bool(problems)
+
+
+def _step_printer(start: float) -> Callable[[str, str], None]:
+    """``progress(step, detail)`` printing the elapsed time since ``start``."""
+
+    def progress(step: str, detail: str) -> None:
+        print(f"[{time.perf_counter() - start:7.2f} s] {step:<15} {detail}", flush=True)
+
+    return progress
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -188,17 +204,12 @@ def _pendulum(args: argparse.Namespace) -> int:
         seed=args.seed,
         check_true_gains=args.check_true_gains,
     )
-    problems = settings.problems()
-    if problems:
-        for line in problems:
-            print(f"colloc pendulum: error: {line}", file=sys.stderr)
+    if _report_problems("colloc pendulum", settings.problems()):
         return 2
     # Open the database before any work so a bad URL fails fast.
     store = None if args.no_store else RunStore(args.db)
     start = time.perf_counter()
-
-    def progress(step: str, detail: str) -> None:
-        print(f"[{time.perf_counter() - start:7.2f} s] {step:<15} {detail}", flush=True)
+    progress = _step_printer(start)
 
     def iteration(row: dict[str, float]) -> None:
         print(
@@ -281,17 +292,10 @@ def _gait(args: argparse.Namespace) -> int:
         structure=args.structure,
         perturbed=not args.unperturbed,
     )
-    problems = settings.problems()
-    if problems:
-        for line in problems:
-            print(f"colloc gait simulate: error: {line}", file=sys.stderr)
+    if _report_problems("colloc gait simulate", settings.problems()):
         return 2
     start = time.perf_counter()
-
-    def progress(step: str, detail: str) -> None:
-        print(f"[{time.perf_counter() - start:7.2f} s] {step:<15} {detail}", flush=True)
-
-    result = simulate_trial(settings, progress=progress)
+    result = simulate_trial(settings, progress=_step_printer(start))
     for name, path in result.files.items():
         print(f"  {name}: {path}")
     for note in result.notes:
