@@ -162,3 +162,15 @@ def test_sampled_lqr_stabilises_mathieu_like_the_ode_version():
         sampled_periodic_lqr(A, np.zeros_like(B), t, Q, R, max_cycles=3)
     with pytest.raises(ValueError, match=r"discrete_monodromy: A: expected shape"):
         discrete_monodromy(A[:, :1], t)
+
+
+def test_sampled_periodic_lqr_handles_thousands_of_samples():
+    """The monodromy is a loop, not numpy's recursive multi_dot (which failed beyond ~1000)."""
+    t, A, B = mathieu(2001)
+    res = sampled_periodic_lqr(A, B, t, np.eye(2), np.eye(1))
+    closed = A - B @ res.K
+    expected = np.linalg.eigvals(discrete_monodromy(closed, t))
+    # Zero-order hold on the left sample vs the interval mean: O(h) apart (0.9 % here).
+    np.testing.assert_allclose(
+        np.sort(np.abs(res.floquet_multipliers)), np.sort(np.abs(expected)), rtol=0.02
+    )

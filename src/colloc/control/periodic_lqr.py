@@ -266,8 +266,11 @@ def sampled_periodic_lqr(
             f"periods (last relative change {change:.3g}); check that (A, B) is stabilisable"
         )
     S[-1], K[-1] = S[0], K[0]
-    closed = [phis[k] - gammas[k] @ K[k] for k in range(num)]
-    mu = np.linalg.eigvals(np.linalg.multi_dot(closed[::-1]) if num > 1 else closed[0])
+    # A plain loop: numpy's multi_dot recurses once per factor and fails beyond ~1000.
+    monodromy = np.eye(n)
+    for k in range(num):
+        monodromy = (phis[k] - gammas[k] @ K[k]) @ monodromy
+    mu = np.linalg.eigvals(monodromy)
     mu = mu[np.argsort(-np.abs(mu), kind="stable")]
     return PeriodicLQRResult(K=K, S=S, floquet_multipliers=mu, times=t, num_periods=periods)
 
