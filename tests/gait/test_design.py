@@ -5,7 +5,12 @@ import pytest
 import scipy.optimize
 
 from colloc.gait.cycle import WalkingCycle
-from colloc.gait.design import JOINT_STATES, design_controller, joint_feedback_multipliers
+from colloc.gait.design import (
+    JOINT_STATES,
+    REGULATED,
+    design_controller,
+    joint_feedback_multipliers,
+)
 from colloc.gait.orbit import GaitDynamics, cycle_linearization
 from colloc.models.gait2d_params import load_parameters
 
@@ -83,32 +88,70 @@ def test_standing_cycle_is_an_equilibrium_and_hip_x_is_neutral(dyn, standing):
     assert np.abs(A[:, :, 0]).max() == 0.0
 
 
-def test_design_on_standing_reproduces_cycle_torque_and_constant_gains(dyn, standing):
-    ctrl, Tstar, K, info = design_controller(standing, 8, dynamics=dyn)
-    assert Tstar.shape == (8, 6) and K.shape == (8, 6, 12)
-    s = standing.states[0, JOINT_STATES]
+def test_full_state_design_on_standing_has_constant_gains_and_exact_multipliers(dyn, standing):
+    ctrl, Tstar, K, info = design_controller(standing, 8, dynamics=dyn, feedback=REGULATED)
+    assert Tstar.shape == (8, 6) and K.shape == (8, 6, 17)
+    s = standing.states[0, REGULATED]
     # On the cycle the controller gives the cycle's torque.
     np.testing.assert_allclose(ctrl.torque(0.3, s, Tstar, K)[0], standing.torques[0], atol=1e-8)
     # A constant cycle gives constant gains, and the full-state LQR loop is stable.
     np.testing.assert_allclose(K, np.repeat(K[:1], 8, 0), rtol=1e-6, atol=1e-6)
     assert np.max(np.abs(info.lqr_multipliers)) < 1.0
-    # The restricted-gain multipliers agree with the eigenvalues of the constant closed loop.
+    assert "tuning" not in info.extra
+    # The multipliers agree with the eigenvalues of the constant closed loop.
     t, A, B = cycle_linearization(dyn, standing)
     full = np.zeros((6, 18))
-    full[:, JOINT_STATES] = K[0]
+    full[:, REGULATED] = K[0]
     acl = (A[0] - B[0] @ full)[1:, 1:]
     expected = np.exp(np.linalg.eigvals(acl) * standing.duration)
     # Products of stiff matrix exponentials carry ~1e-4 round-off on tiny multipliers.
     np.testing.assert_allclose(
         np.sort(np.abs(info.multipliers)), np.sort(np.abs(expected)), rtol=1e-3, atol=1e-4
     )
-    again = joint_feedback_multipliers(t, A, B, K)
+    again = joint_feedback_multipliers(t, A, B, K, REGULATED)
     np.testing.assert_allclose(np.abs(again), np.abs(info.multipliers))
+
+
+def test_joint_only_design_on_standing_is_tuned_to_stability(dyn, standing):
+    ctrl, Tstar, K, info = design_controller(
+        standing, 8, dynamics=dyn, num_samples=41, tune_iterations=40
+    )
+    assert K.shape == (8, 6, 12)
+    s = standing.states[0, JOINT_STATES]
+    np.testing.assert_allclose(ctrl.torque(0.3, s, Tstar, K)[0], standing.torques[0], atol=1e-8)
+    tuning = info.extra["tuning"]
+    assert tuning["log_cost"] < tuning["initial_log_cost"]
+    assert info.spectral_radius < 1.0
+    t, A, B = cycle_linearization(dyn, standing, 41)
+    np.testing.assert_allclose(
+        np.abs(joint_feedback_multipliers(t, A, B, K)), np.abs(info.multipliers)
+    )
+
+
+def test_stance_substitution_recovers_the_body_motion_that_keeps_both_feet_put(dyn, standing):
+    """A perturbation that leaves both loaded feet in place: C maps its joints to its body part."""
+    from colloc.gait.stance import contact_point_jacobian, substitution_matrices
+
+    x = standing.states[0]
+    G = np.asarray(contact_point_jacobian(dyn)(x))  # rows: x, y of r-heel, r-toe, l-heel, l-toe
+    rng = np.random.default_rng(0)
+    body = 1e-3 * rng.standard_normal(3)
+    # Each leg's joints that keep its foot's two points fixed for this body motion (the foot
+    # is rigid, so the four equations have rank three and are solved exactly).
+    dq = np.r_[body, np.zeros(6)]
+    for rows, joints in ((slice(0, 4), [3, 4, 5]), (slice(4, 8), [6, 7, 8])):
+        sol, *_ = np.linalg.lstsq(G[rows][:, joints], -G[rows][:, :3] @ body, rcond=None)
+        dq[joints] = sol
+    assert np.abs(G @ dq).max() < 1e-12
+    C = substitution_matrices(dyn, x[None], 0.0, np.arange(3, 9), regularisation=1e-9)[0]
+    np.testing.assert_allclose(C @ dq[3:], body, rtol=1e-5, atol=1e-12)
 
 
 def test_design_argument_errors(dyn, standing):
     with pytest.raises(ValueError, match=r"Q: expected shape \(18, 18\).*R: expected shape"):
         design_controller(standing, 8, Q=np.eye(3), R=np.eye(2), dynamics=dyn)
+    with pytest.raises(ValueError, match=r"feedback: expected distinct state indices in \[1, 18\)"):
+        design_controller(standing, 8, dynamics=dyn, feedback=[0, 3])
     with pytest.raises(ValueError, match="num_points: expected an integer >= 2"):
         design_controller(standing, 1, dynamics=dyn)
     with pytest.raises(ValueError, match="num_samples: expected an integer >= 3"):

@@ -178,6 +178,32 @@ class GaitDynamics:
         return A, B
 
 
+    def belt_sensitivity(
+        self, states: np.ndarray, torques: np.ndarray, belt_speed: float | np.ndarray
+    ) -> np.ndarray:
+        """``dx'/dv``, the response of the dynamics to the belt speed, at ``k`` points.
+
+        Parameters
+        ----------
+        states : ndarray, shape (k, 18)
+        torques : ndarray, shape (k, 6)
+        belt_speed : float or ndarray, shape (k,)
+
+        Returns
+        -------
+        ndarray, shape (k, 18)
+        """
+        x = np.atleast_2d(np.asarray(states, float))
+        tq = np.atleast_2d(np.asarray(torques, float))
+        v = np.broadcast_to(np.asarray(belt_speed, float), (x.shape[0],))
+        fn = ca.Function(
+            "belt_sensitivity",
+            [self.x, self.torque, self.belt],
+            [ca.jacobian(self.xdot, self.belt)],
+        )
+        return np.asarray(fn.map(x.shape[0])(x.T, tq.T, v[None, :])).T
+
+
 def _model_inputs(gait: Gait2D, model: Model, torque: ca.SX, belt: ca.SX) -> list[ca.SX]:
     by_symbol = dict(zip(gait.torques, ca.vertsplit(torque), strict=True))
     by_symbol[gait.belt_speed] = belt
