@@ -1,13 +1,15 @@
 """End-to-end cost of ``colloc gait simulate`` (colloc.gait.workflow.simulate_trial).
 
 Runs the workflow once with the given settings and reports the wall time of each step
-(cycle, design, simulate, trial, figures, animation), the simulated seconds per wall second
-of the closed-loop simulation, the stride count and whether the walker fell. A design whose
-closed loop is not stable is refused by the workflow; that is reported as
+(cycle, settle, design, simulate, trial, figures, animation), the design's Floquet spectral
+radius and tuning statistics, the simulated seconds per wall second of the closed-loop
+simulation, the stride count, whether the walker fell, and the peak resident memory. A
+design whose closed loop is not stable is refused by the workflow; that is reported as
 ``refused: <message>`` with no simulation figures.
 
-Usage: python benchmarks/gait_simulate.py [--duration 480] [--speed 1.2] [--points 50]
-       [--out benchmarks/results/gait_simulate.json] [--trial-dir /tmp/gait-sim-bench]
+Usage: python benchmarks/gait_simulate.py [--duration 480] [--speed 1.2] [--points 200]
+       [--feedback joints] [--out benchmarks/results/gait_simulate.json]
+       [--trial-dir /tmp/gait-sim-bench]
 """
 
 from __future__ import annotations
@@ -16,11 +18,12 @@ import argparse
 import json
 import os
 import platform
+import resource
 import time
 from pathlib import Path
 
 
-def run(duration: float, speed: float, points: int, trial_dir: Path) -> dict:
+def run(duration: float, speed: float, points: int, feedback: str, trial_dir: Path) -> dict:
     from colloc.gait.workflow import (
         GaitSimulationSettings,
         UnstableControllerError,
@@ -28,7 +31,7 @@ def run(duration: float, speed: float, points: int, trial_dir: Path) -> dict:
     )
 
     settings = GaitSimulationSettings(
-        duration=duration, speed=speed, num_points=points, out=trial_dir
+        duration=duration, speed=speed, num_points=points, feedback=feedback, out=trial_dir
     )
     steps: dict[str, float] = {}
     last = [time.perf_counter(), None]
@@ -42,14 +45,19 @@ def run(duration: float, speed: float, points: int, trial_dir: Path) -> dict:
 
     start = time.perf_counter()
     out: dict = {
-        "settings": {"duration": duration, "speed": speed, "points": points},
+        "settings": {
+            "duration": duration,
+            "speed": speed,
+            "points": points,
+            "feedback": feedback,
+        },
         "machine": {"cpus": os.cpu_count(), "python": platform.python_version()},
     }
     try:
         result = simulate_trial(settings, progress=progress)
     except UnstableControllerError as error:
         out |= {"refused": str(error), "wall_time": time.perf_counter() - start}
-        return out
+        return out | {"peak_rss_mb": _peak_rss_mb()}
     record = result.record
     out |= {
         "wall_time": time.perf_counter() - start,
@@ -60,20 +68,28 @@ def run(duration: float, speed: float, points: int, trial_dir: Path) -> dict:
         "fell": bool(record.fell),
         "message": record.message,
         "spectral_radius": float(result.design_info.spectral_radius),
+        "tuning": result.summary.get("controller_tuning", {}),
+        "settled_cycle": result.summary.get("cycle", {}),
         "hip_height_range_m": [float(record.states[:, 1].min()), float(record.states[:, 1].max())],
+        "peak_rss_mb": _peak_rss_mb(),
     }
     return out
+
+
+def _peak_rss_mb() -> float:
+    return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0
 
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--duration", type=float, default=480.0)
     parser.add_argument("--speed", type=float, default=1.2)
-    parser.add_argument("--points", type=int, default=50)
+    parser.add_argument("--points", type=int, default=200)
+    parser.add_argument("--feedback", default="joints")
     parser.add_argument("--out", type=Path, default=Path("benchmarks/results/gait_simulate.json"))
     parser.add_argument("--trial-dir", type=Path, default=Path("/tmp/gait-sim-bench"))
     args = parser.parse_args()
-    result = run(args.duration, args.speed, args.points, args.trial_dir)
+    result = run(args.duration, args.speed, args.points, args.feedback, args.trial_dir)
     args.out.parent.mkdir(parents=True, exist_ok=True)
     args.out.write_text(json.dumps(result, indent=2, default=str) + "\n")
     print(json.dumps(result, indent=2, default=str))

@@ -160,6 +160,12 @@ def build_parser() -> argparse.ArgumentParser:
     )
     sim.add_argument("--structure", default="full", help="gain structure: full or joint-isolated")
     sim.add_argument(
+        "--feedback",
+        default="joints",
+        help="fed-back states: joints (angles and rates), joints+trunk, or all (default "
+        "%(default)s)",
+    )
+    sim.add_argument(
         "--unperturbed", action="store_true", help="constant belt speed instead of the record"
     )
 
@@ -290,6 +296,7 @@ def _gait(args: argparse.Namespace) -> int:
         out=args.out,
         num_points=args.points,
         structure=args.structure,
+        feedback=args.feedback,
         perturbed=not args.unperturbed,
     )
     if _report_problems("colloc gait simulate", settings.problems()):
@@ -301,9 +308,10 @@ def _gait(args: argparse.Namespace) -> int:
     for note in result.notes:
         print(f"note: {note}")
     summary = result.summary
+    strides = summary["strides"]
     print(
-        f"strides: {summary.get('stride_count')}, fell: {result.fell}, "
-        f"wall time {time.perf_counter() - start:.1f} s"
+        f"strides: {strides['right']} right, {strides['left']} left; fell: {result.fell} "
+        f"({summary['message']}); wall time {time.perf_counter() - start:.1f} s"
     )
     return 1 if result.fell else 0
 

@@ -235,7 +235,15 @@ def fake_pipeline(monkeypatch, calls, spectral_radius=0.5):
 
         controller = Controller()
         controller.mask = joint_isolated_mask(6)
-        return controller, Tstar, K, FakeDesignInfo(spectral_radius)
+        extra = len(kwargs["feedback"]) - K.shape[2]  # other feedback sets: zero gains
+        if extra:
+            controller.mask = np.pad(controller.mask, ((0, 0), (0, extra)))
+            return_K = np.pad(K, ((0, 0), (0, 0), (0, extra)))
+        else:
+            return_K = K
+        radii = spectral_radius if isinstance(spectral_radius, list) else [spectral_radius] * 2
+        designs = sum(c[0] == "design" for c in calls)
+        return controller, Tstar, return_K, FakeDesignInfo(radii[(designs - 1) % len(radii)])
 
     def simulate_walking(cycle, Tstar_, K_, duration, belt_speed, **kwargs):
         calls.append(("simulate", duration, belt_speed, kwargs))
@@ -263,6 +271,11 @@ def fake_pipeline(monkeypatch, calls, spectral_radius=0.5):
 
     import colloc.gait.workflow as workflow
 
+    def settle_cycle(cycle, Tstar_, K_, feedback, **kwargs):
+        calls.append(("settle", feedback.tolist(), kwargs))
+        return cycle
+
+    monkeypatch.setattr(workflow, "settle_cycle", settle_cycle)
     monkeypatch.setattr(workflow, "find_walking_cycle", find_walking_cycle)
     monkeypatch.setattr(workflow, "design_controller", design_controller)
     monkeypatch.setattr(workflow, "simulate_walking", simulate_walking)
@@ -281,12 +294,13 @@ def test_settings_report_every_bad_field_before_any_work(monkeypatch, tmp_path):
         duration=-1.0, speed=float("nan"), seed=-2, out=a_file, num_points=1,
         noise={"knee": 1.0}, sample_rate=0, cache=3, body_mass=0, height=-1.8,
         perturbed=True, belt_record=tmp_path / "missing.txt", motor_noise=-1.0,
-        structure="diagonal", animation_seconds=0,
+        structure="diagonal", animation_seconds=0, feedback="eyes",
     )  # fmt: skip
     expected = [
         "duration", "speed", "sample_rate", "body_mass", "height", "animation_seconds",
         "motor_noise", "seed", "num_points", "noise: noise_std: unknown group 'knee'", "cache",
-        "structure", "out: expected a directory, found an existing file", "belt_record",
+        "structure", "feedback: expected one of ['joints', 'joints+trunk', 'all']",
+        "out: expected a directory, found an existing file", "belt_record",
     ]  # fmt: skip
     problems = settings.problems()
     assert len(problems) == len(expected)
@@ -322,6 +336,19 @@ def test_an_unstable_design_is_refused_before_simulating(monkeypatch, tmp_path, 
     assert issubclass(UnstableControllerError, ValueError)
 
 
+def test_an_unstable_trial_controller_is_refused_after_settling(monkeypatch, tmp_path):
+    from colloc.gait.workflow import GaitSimulationSettings, UnstableControllerError, simulate_trial
+
+    calls: list = []
+    fake_pipeline(monkeypatch, calls, spectral_radius=[0.2, 3.5])
+    out = tmp_path / "out"
+    settings = GaitSimulationSettings(duration=3.0, out=out, perturbed=False, feedback="joints")
+    with pytest.raises(UnstableControllerError, match=r"found 3.5 .*feedback 'joints'"):
+        simulate_trial(settings)
+    assert [c[0] for c in calls] == ["cycle", "dynamics", "design", "settle", "design"]
+    assert not out.exists()
+
+
 def test_belt_input_from_the_measured_record():
     from colloc.gait.workflow import GaitSimulationSettings, belt_input
 
@@ -354,8 +381,13 @@ def test_simulate_trial_writes_a_complete_output(monkeypatch, tmp_path):
         structure="joint-isolated", body_mass=70.0, motor_noise=2.0, cache=False,
     )  # fmt: skip
     result = simulate_trial(settings, progress=lambda step, detail: steps.append(step))
-    assert steps == ["cycle", "design", "simulate", "trial", "figures", "animation"]
+    assert steps == ["cycle", "settle", "design", "simulate", "trial", "figures", "animation"]
     assert calls[0][0] == "cycle" and calls[0][2]["cache"] is False
+    # The settling controller feeds back every regulated state; the trial's the joints.
+    designs = [c for c in calls if c[0] == "design"]
+    assert designs[0][2]["feedback"].tolist() == list(range(1, 18))
+    assert next(c for c in calls if c[0] == "settle")[1] == list(range(1, 18))
+    assert designs[1][2]["feedback"].tolist() == [*range(3, 9), *range(12, 18)]
     assert calls[0][2]["params"].body_mass == 70.0
     simulate = next(c for c in calls if c[0] == "simulate")
     assert simulate[1] == 6.0 and simulate[2][0][-1] == pytest.approx(6.0)
@@ -387,6 +419,9 @@ def test_simulate_trial_writes_a_complete_output(monkeypatch, tmp_path):
     np.testing.assert_array_equal(Tstar_back, Tstar)
     np.testing.assert_array_equal(K_back, K)
     assert trial.metadata["controller"]["phase_convention"].startswith("causal")
+    assert trial.metadata["controller"]["feedback"] == list(
+        JOINT_ANGLE_COLUMNS + JOINT_RATE_COLUMNS
+    )
     assert trial.metadata["body_mass"] == 70.0
     assert trial.metadata["noise"]["seed"] == 5
     assert trial.metadata["belt"]["source"].endswith("RandomSlowSpeed1.txt")
@@ -438,3 +473,34 @@ def test_controller_phase_is_kept_noise_free_when_the_record_has_one(tmp_path):
     trial.write(tmp_path / "t")
     back = read_trial(tmp_path / "t")
     np.testing.assert_allclose(back.signals[CONTROLLER_PHASE_COLUMN], expected, atol=1e-9)
+
+
+def test_cli_reports_bad_settings_without_work(monkeypatch, capsys, tmp_path):
+    from colloc.cli import main
+
+    calls: list = []
+    fake_pipeline(monkeypatch, calls)
+    code = main(
+        ["gait", "simulate", "--duration", "-1", "--feedback", "eyes", "--out", str(tmp_path)]
+    )
+    err = capsys.readouterr().err
+    assert code == 2 and calls == []
+    assert "duration: expected a positive finite number" in err
+    assert "feedback: expected one of ['joints', 'joints+trunk', 'all'], found 'eyes'" in err
+
+
+def test_cli_runs_the_workflow_and_reports_strides(monkeypatch, capsys, tmp_path):
+    from colloc.cli import main
+
+    calls: list = []
+    fake_pipeline(monkeypatch, calls)
+    out = tmp_path / "sim"
+    code = main(
+        ["gait", "simulate", "--duration", "6", "--feedback", "joints+trunk", "--out", str(out)]
+    )
+    printed = capsys.readouterr().out
+    assert code == 0, printed
+    designs = [c for c in calls if c[0] == "design"]
+    assert designs[1][2]["feedback"].tolist() == [*range(2, 9), *range(11, 18)]
+    assert "strides: 5 right, 4 left; fell: False (walked the whole duration)" in printed
+    assert (out / "summary.json").is_file()

@@ -70,7 +70,8 @@ _ARRAYS = ("times", "states", "torques", "contact_forces", "belt_speed", "durati
 _STATS_IN_FILE = (  # scalars and small lists; the IPOPT log and history stay in memory
     *("status", "success", "iterations", "objective", "constraint_violation", "build_time"),
     *("solve_time", "scheme", "num_nodes", "rms_angle_error_deg", "peak_vertical_grf_bw"),
-    *("rms_angle_error_by_joint_deg", "stages"),
+    *("rms_angle_error_by_joint_deg", "stages", "source", "settle_residual"),
+    *("settle_duration_change", "hip_drift_per_stride", "num_strides", "stride_durations"),
 )
 
 

@@ -177,7 +177,6 @@ class GaitDynamics:
             B[k] = -np.linalg.solve(f_xd, f_r)
         return A, B
 
-
     def belt_sensitivity(
         self, states: np.ndarray, torques: np.ndarray, belt_speed: float | np.ndarray
     ) -> np.ndarray:

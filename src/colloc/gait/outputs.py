@@ -108,6 +108,10 @@ def publish(staging: Path, out: Path, names: list[str]) -> dict[str, Path]:
     return moved
 
 
+#: Cycle statistics copied into the summary when present (see colloc.gait.settle).
+_CYCLE_STATS = ("source", "settle_residual", "hip_drift_per_stride", "num_strides")
+
+
 def summarize(
     settings: Mapping[str, Any],
     record: Any,
@@ -128,7 +132,7 @@ def summarize(
         ``message``.
     cycle : WalkingCycle
     design_info : DesignInfo or None
-        Its ``spectral_radius`` is reported when present.
+        Its ``spectral_radius`` and ``extra["tuning"]`` are reported when present.
     timings : mapping
         Step -> wall time [s].
     files : mapping
@@ -146,6 +150,7 @@ def summarize(
     left = np.asarray(record.left_heel_strikes, dtype=float)
     times = np.asarray(record.times, dtype=float)
     radius = getattr(design_info, "spectral_radius", None)
+    stats = getattr(cycle, "stats", {}) or {}
     return {
         "settings": dict(settings),
         "simulated_seconds": float(times[-1] - times[0]),
@@ -153,8 +158,13 @@ def summarize(
         "message": str(record.message),
         "strides": {"right": max(right.size - 1, 0), "left": max(left.size - 1, 0)},
         "hip_height_range": [float(hip_height.min()), float(hip_height.max())],
-        "cycle": {"speed": float(cycle.belt_speed), "duration": float(cycle.duration)},
+        "cycle": {
+            "speed": float(cycle.belt_speed),
+            "duration": float(cycle.duration),
+            **{k: stats[k] for k in _CYCLE_STATS if k in stats},
+        },
         "controller_spectral_radius": None if radius is None else float(radius),
+        "controller_tuning": dict(getattr(design_info, "extra", {}).get("tuning", {})),
         "wall_times": {name: float(value) for name, value in timings.items()},
         "files": dict(files),
         "notes": list(notes),

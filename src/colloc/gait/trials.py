@@ -27,7 +27,7 @@ Both use the same sign conventions, so no sign changes are needed.
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from typing import Any, Protocol
 
 import numpy as np
@@ -301,6 +301,16 @@ def record_to_trial(
     return Trial(time, measured, strikes["right"], strikes["left"], info)
 
 
+#: Name of each gait-model state ``[q, u]`` as the trial calls the signal (the trunk's
+#: velocities are not trial columns; they are named ``<column>_rate``).
+STATE_SIGNAL_NAMES: tuple[str, ...] = (
+    TRUNK_COLUMNS
+    + JOINT_ANGLE_COLUMNS
+    + tuple(f"{name}_rate" for name in TRUNK_COLUMNS)
+    + JOINT_RATE_COLUMNS
+)
+
+
 def controller_metadata(
     Tstar: np.ndarray,
     K: np.ndarray,
@@ -308,6 +318,7 @@ def controller_metadata(
     *,
     structure: str | None = None,
     phase_convention: str = PHASE_CONVENTION,
+    feedback: Sequence[str] | None = None,
 ) -> dict[str, Any]:
     """The true controller ``T = T*(phi) - K(phi) s`` as plain nested lists.
 
@@ -315,14 +326,17 @@ def controller_metadata(
     ----------
     Tstar : array_like, shape (P, 6)
         Scheduled torques [N·m].
-    K : array_like, shape (P, 6, 12)
-        Scheduled gains; ``s`` = six joint angles then six joint rates.
-    mask : array_like of bool, shape (6, 12)
+    K : array_like, shape (P, 6, n_s)
+        Scheduled gains on ``s``.
+    mask : array_like of bool, shape (6, n_s)
         Which gains exist (the structure); gains outside it must be zero.
     structure : str, optional
         Name of the structure (``"full"``, ``"joint-isolated"``), recorded as is.
     phase_convention : str
         How the controller's phase was computed; default :data:`PHASE_CONVENTION`.
+    feedback : sequence of str, optional
+        Names of the fed-back signals ``s`` (see :data:`STATE_SIGNAL_NAMES`); default the six
+        joint angles then the six joint rates.
 
     Returns
     -------
@@ -336,9 +350,15 @@ def controller_metadata(
         If the shapes disagree, values are not finite, or ``K`` is nonzero outside ``mask``.
     """
     Tstar, K, mask = np.asarray(Tstar, float), np.asarray(K, float), np.asarray(mask)
-    m, ns = len(TORQUE_COLUMNS), len(JOINT_ANGLE_COLUMNS) + len(JOINT_RATE_COLUMNS)
+    names = list(JOINT_ANGLE_COLUMNS + JOINT_RATE_COLUMNS) if feedback is None else list(feedback)
+    m, ns = len(TORQUE_COLUMNS), len(names)
     P = Tstar.shape[0] if Tstar.ndim == 2 else -1
     problems = []
+    unknown = [n for n in names if n not in STATE_SIGNAL_NAMES]
+    if unknown or len(set(names)) != len(names):
+        problems.append(
+            f"feedback: expected distinct names from {list(STATE_SIGNAL_NAMES)}, found {names}"
+        )
     if Tstar.shape != (P, m) or P < 1:
         problems.append(f"Tstar: expected shape (P, {m}), found {Tstar.shape}")
     if K.shape != (P, m, ns):
@@ -359,7 +379,7 @@ def controller_metadata(
         "num_points": int(P),
         "phase_convention": str(phase_convention),
         "inputs": list(TORQUE_COLUMNS),
-        "feedback": list(JOINT_ANGLE_COLUMNS + JOINT_RATE_COLUMNS),
+        "feedback": names,
         "structure": structure,
         "mask": mask.tolist(),
         "Tstar": Tstar.tolist(),
@@ -380,8 +400,9 @@ def controller_from_metadata(
     Returns
     -------
     Tstar : ndarray, shape (P, 6)
-    K : ndarray, shape (P, 6, 12)
-    mask : ndarray of bool, shape (6, 12)
+    K : ndarray, shape (P, 6, n_s)
+        Gains on the signals named in ``metadata["controller"]["feedback"]``.
+    mask : ndarray of bool, shape (6, n_s)
 
     Raises
     ------

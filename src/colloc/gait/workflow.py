@@ -4,13 +4,16 @@ Steps of :func:`simulate_trial` (each timed, reported through ``progress``):
 
 1. ``cycle``: a periodic walking cycle at the belt speed
    (:func:`colloc.gait.cycle.find_walking_cycle`);
-2. ``design``: the gain-scheduled controller that stabilises it
-   (:func:`colloc.gait.design.design_controller`);
-3. ``simulate``: the closed loop on a perturbed belt
+2. ``settle``: a full-state controller closes the loop around it on a constant belt until the
+   strides repeat; the last stride is the cycle the continuous model really walks
+   (:func:`colloc.gait.settle.settle_cycle`);
+3. ``design``: the gain-scheduled controller on the chosen feedback that stabilises the
+   settled cycle (:func:`colloc.gait.design.design_controller`);
+4. ``simulate``: the closed loop on a perturbed belt
    (:func:`colloc.gait.closed_loop.simulate_walking`);
-4. ``trial``: the record as a gait-lab trial with sensor noise and the true controller in its
+5. ``trial``: the record as a gait-lab trial with sensor noise and the true controller in its
    metadata (:func:`colloc.gait.trials.record_to_trial`);
-5. ``figures`` and ``animation``.
+6. ``figures`` and ``animation``.
 
 The output directory is laid out as described in :mod:`colloc.gait.outputs`.
 Everything is first written into a hidden staging directory inside ``<out>``, then each
@@ -37,7 +40,7 @@ import numpy as np
 from colloc.data.belt import read_belt_perturbation
 from colloc.gait.closed_loop import perturbation_belt_speed, simulate_walking
 from colloc.gait.cycle import find_walking_cycle
-from colloc.gait.design import JOINT_STATES, design_controller
+from colloc.gait.design import FEEDBACK_SETS, REGULATED, design_controller
 from colloc.gait.orbit import GaitDynamics
 from colloc.gait.outputs import (
     ANIMATION_FILE,
@@ -51,7 +54,9 @@ from colloc.gait.outputs import (
     write_figures,
     write_json,
 )
+from colloc.gait.settle import settle_cycle
 from colloc.gait.trials import (
+    STATE_SIGNAL_NAMES,
     controller_metadata,
     record_to_trial,
     resolve_noise_std,
@@ -75,14 +80,16 @@ SIMULATION_PHASE = (
     "linearly and periodically in phi"
 )
 
-#: States fed back by the simulated controller (indices into ``[q, u]``): the joint angles
-#: and rates of the issue's controller.
-CONTROLLER_FEEDBACK: np.ndarray = JOINT_STATES
-#: Uniform samples of the stride at which the controller is designed. Finer than the cycle's
-#: nodes so that the gains change gradually through heel strike and toe-off; measured on a
-#: 60-node cycle with full-state feedback: at the nodes the closed loop lost a foot at the
-#: second heel strike, with 241 samples (and P = 120) it walked.
+#: Uniform samples of the stride at which the settling controller is designed on the
+#: collocation cycle. Finer than the cycle's nodes so that the gains change gradually
+#: through heel strike and toe-off; measured on a 60-node cycle with full-state feedback: at
+#: the nodes the closed loop lost a foot at the second heel strike, with 241 samples it
+#: walked.
 DESIGN_SAMPLES = 241
+#: Samples (about 1 ms) at which the simulated controller is designed on the settled cycle.
+#: Partial-state gains tuned on a coarser grid exploit its errors (tuned on 301 samples:
+#: Floquet radius 0.48 there, 1.14 on 2401 samples).
+SETTLED_DESIGN_SAMPLES = 1201
 
 
 class UnstableControllerError(ValueError):
@@ -130,6 +137,10 @@ class GaitSimulationSettings:
         simulation (seeded by ``seed``); 0 for none.
     structure : str
         Controller structure, one of :data:`STRUCTURES`.
+    feedback : str
+        The states the controller feeds back, a key of
+        :data:`colloc.gait.design.FEEDBACK_SETS`: ``"joints"`` (the six joint angles and
+        rates), ``"joints+trunk"`` or ``"all"`` (every state but the hip's forward position).
     animation_seconds : float
         Length of the animation and of the contact-force window [s], > 0.
     """
@@ -148,6 +159,7 @@ class GaitSimulationSettings:
     belt_record: Path | None = None
     motor_noise: float = 0.0
     structure: str = "full"
+    feedback: str = "joints"
     animation_seconds: float = 5.0
 
     def problems(self) -> list[str]:
@@ -184,6 +196,13 @@ class GaitSimulationSettings:
             out.append(f"cache: expected a bool or a directory path, found {self.cache!r}")
         if self.structure not in STRUCTURES:
             out.append(f"structure: expected one of {list(STRUCTURES)}, found {self.structure!r}")
+        if self.feedback not in FEEDBACK_SETS:
+            out.append(f"feedback: expected one of {list(FEEDBACK_SETS)}, found {self.feedback!r}")
+        elif self.structure == "joint-isolated" and self.feedback != "joints":
+            out.append(
+                "structure: 'joint-isolated' needs feedback 'joints' (each torque from its own "
+                f"joint's angle and rate), found feedback {self.feedback!r}"
+            )
         if not isinstance(self.out, str | os.PathLike):
             out.append(f"out: expected a directory path, found {type(self.out).__name__}")
         elif Path(self.out).exists() and not Path(self.out).is_dir():
@@ -334,7 +353,9 @@ def belt_input(
     return samples, description
 
 
-def check_stable(spectral_radius: float, settings: GaitSimulationSettings) -> None:
+def check_stable(
+    spectral_radius: float, settings: GaitSimulationSettings, feedback: str | None = None
+) -> None:
     """Refuse a controller whose linearised closed loop is not stable.
 
     Parameters
@@ -344,6 +365,8 @@ def check_stable(spectral_radius: float, settings: GaitSimulationSettings) -> No
         (:attr:`colloc.gait.design.DesignInfo.spectral_radius`).
     settings : GaitSimulationSettings
         Named in the message.
+    feedback : str, optional
+        The feedback set of the design checked; default ``settings.feedback``.
 
     Raises
     ------
@@ -354,8 +377,8 @@ def check_stable(spectral_radius: float, settings: GaitSimulationSettings) -> No
         raise UnstableControllerError(
             f"controller: expected a stabilising design (Floquet spectral radius < 1), found "
             f"{spectral_radius:.4g} for structure {settings.structure!r} with P = "
-            f"{settings.num_points} schedule points and feedback on states "
-            f"{CONTROLLER_FEEDBACK.tolist()}; the closed loop would fall, so nothing was "
+            f"{settings.num_points} schedule points and feedback "
+            f"{feedback or settings.feedback!r}; the closed loop would fall, so nothing was "
             "simulated (try more schedule points, or feedback on more states)"
         )
 
@@ -392,15 +415,28 @@ def simulate_trial(
     belt, belt_description = belt_input(settings)
     with clock.step("cycle", f"periodic walking cycle at {settings.speed} m/s"):
         cycle = find_walking_cycle(settings.speed, params=params, cache=settings.cache)
-    with clock.step("design", f"gain-scheduled controller, P = {settings.num_points}"):
-        dynamics = GaitDynamics.build(params)
+    dynamics = GaitDynamics.build(params)
+    with clock.step("settle", "the stride the continuous model walks, full-state feedback"):
+        _, settle_tstar, settle_k, settle_info = design_controller(
+            cycle,
+            settings.num_points,
+            dynamics=dynamics,
+            num_samples=DESIGN_SAMPLES,
+            feedback=REGULATED,
+        )
+        check_stable(settle_info.spectral_radius, settings, "all")
+        cycle = settle_cycle(cycle, settle_tstar, settle_k, REGULATED, dynamics=dynamics)
+    feedback = FEEDBACK_SETS[settings.feedback]
+    with clock.step(
+        "design", f"gain-scheduled controller on {settings.feedback!r}, P = {settings.num_points}"
+    ):
         controller, Tstar, K, info = design_controller(
             cycle,
             settings.num_points,
             structure=settings.structure,
             dynamics=dynamics,
-            num_samples=DESIGN_SAMPLES,
-            feedback=CONTROLLER_FEEDBACK,
+            num_samples=SETTLED_DESIGN_SAMPLES,
+            feedback=feedback,
         )
     check_stable(info.spectral_radius, settings)
     with clock.step("simulate", f"{settings.duration} s of closed-loop walking"):
@@ -414,7 +450,7 @@ def simulate_trial(
             seed=motor_seed(settings.seed),
             sample_rate=settings.sample_rate,
             torque_noise=settings.motor_noise,
-            feedback=CONTROLLER_FEEDBACK,
+            feedback=feedback,
         )
     with clock.step("trial", f"trial with sensor noise at {settings.sample_rate} Hz"):
         metadata = synthetic_metadata(
@@ -424,6 +460,7 @@ def simulate_trial(
                 controller.mask,
                 structure=settings.structure,
                 phase_convention=SIMULATION_PHASE,
+                feedback=[STATE_SIGNAL_NAMES[i] for i in feedback],
             ),
             cycle_speed=cycle.belt_speed,
             cycle_duration=cycle.duration,
