@@ -161,9 +161,9 @@ def build_parser() -> argparse.ArgumentParser:
     sim.add_argument("--structure", default="full", help="gain structure: full or joint-isolated")
     sim.add_argument(
         "--feedback",
-        default="joints",
-        help="fed-back states: joints (angles and rates), joints+trunk, or all (default "
-        "%(default)s)",
+        default="all",
+        help="fed-back states: joints (angles and rates), joints+trunk, or all but the hip's "
+        "forward position (default %(default)s)",
     )
     sim.add_argument(
         "--unperturbed", action="store_true", help="constant belt speed instead of the record"
@@ -325,7 +325,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     args = parser.parse_args(argv)
     try:
         return COMMANDS[args.command](args)
-    except (ValueError, TypeError, LookupError, OSError) as exc:
+    except (ValueError, TypeError, LookupError, OSError, RuntimeError) as exc:
+        # RuntimeError: a solve or a simulation that did not succeed (its message says why).
         print(f"colloc {args.command}: error: {exc}", file=sys.stderr)
         return 2
     except KeyboardInterrupt:

@@ -81,6 +81,20 @@ def test_linearization_matches_central_differences(dyn):
         )
 
 
+def test_belt_sensitivity_matches_central_differences(dyn, standing):
+    rng = np.random.default_rng(4)
+    f = numpy_rhs(dyn)
+    # Feet down and slipping slowly on the belt: friction in its smooth, unsaturated range.
+    x = standing.states[0] + np.r_[np.zeros(9), 1e-3 * rng.standard_normal(9)]
+    torque, v, h = 20 * rng.standard_normal(6), 0.005, 1e-6
+    expected = (f(x, torque, v + h) - f(x, torque, v - h)) / (2 * h)
+    assert np.abs(expected).max() > 1.0  # a foot touches: the belt speed matters
+    got = dyn.belt_sensitivity(np.stack([x, x]), np.stack([torque, torque]), v)
+    assert got.shape == (2, 18)
+    np.testing.assert_allclose(got[0], expected, rtol=1e-5, atol=1e-6 * np.abs(expected).max())
+    np.testing.assert_allclose(got[1], got[0])
+
+
 def test_standing_cycle_is_an_equilibrium_and_hip_x_is_neutral(dyn, standing):
     t, A, B = cycle_linearization(dyn, standing)
     assert np.abs(np.asarray(dyn.rhs(standing.states[0], standing.torques[0], 0.0))).max() < 1e-8

@@ -17,7 +17,7 @@ from colloc.gait.orbit import GaitDynamics
 CYCLE_FILE = Path(__file__).resolve().parent / "data" / "walking_cycle_60.npz"
 #: Full-state feedback (all states but the hip's forward position).
 FULL_STATE = np.arange(1, 18)
-#: Torque weight that walks (R = I / 5^2; the design default I / 50^2 gives gains up to
+#: Torque weight that walks (R = I / 5^2, the design default; I / 50^2 gives gains up to
 #: 1.4e4 and a closed loop that CVODES cannot follow through heel strike).
 R_WALK = np.eye(6) / 5.0**2
 

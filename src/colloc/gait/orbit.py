@@ -158,14 +158,7 @@ class GaitDynamics:
         ValueError
             If the shapes do not match.
         """
-        x = np.atleast_2d(np.asarray(states, float))
-        tq = np.atleast_2d(np.asarray(torques, float))
-        v = np.broadcast_to(np.asarray(belt_speed, float), (x.shape[0],))
-        if x.shape[1:] != (NUM_STATES,) or tq.shape != (x.shape[0], NUM_TORQUES):
-            raise ValueError(
-                f"states, torques: expected shapes (k, {NUM_STATES}) and (k, {NUM_TORQUES}), "
-                f"found {x.shape} and {tq.shape}"
-            )
+        x, tq, v = _operating_points(states, torques, belt_speed)
         A = np.empty((x.shape[0], NUM_STATES, NUM_STATES))
         B = np.empty((x.shape[0], NUM_STATES, NUM_TORQUES))
         for k in range(x.shape[0]):
@@ -191,16 +184,32 @@ class GaitDynamics:
         Returns
         -------
         ndarray, shape (k, 18)
+
+        Raises
+        ------
+        ValueError
+            If the shapes do not match.
         """
-        x = np.atleast_2d(np.asarray(states, float))
-        tq = np.atleast_2d(np.asarray(torques, float))
-        v = np.broadcast_to(np.asarray(belt_speed, float), (x.shape[0],))
+        x, tq, v = _operating_points(states, torques, belt_speed)
         fn = ca.Function(
             "belt_sensitivity",
             [self.x, self.torque, self.belt],
             [ca.jacobian(self.xdot, self.belt)],
         )
         return np.asarray(fn.map(x.shape[0])(x.T, tq.T, v[None, :])).T
+
+
+def _operating_points(
+    states: np.ndarray, torques: np.ndarray, belt_speed: float | np.ndarray
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    x = np.atleast_2d(np.asarray(states, float))
+    tq = np.atleast_2d(np.asarray(torques, float))
+    if x.shape[1:] != (NUM_STATES,) or tq.shape != (x.shape[0], NUM_TORQUES):
+        raise ValueError(
+            f"states, torques: expected shapes (k, {NUM_STATES}) and (k, {NUM_TORQUES}), "
+            f"found {x.shape} and {tq.shape}"
+        )
+    return x, tq, np.broadcast_to(np.asarray(belt_speed, float), (x.shape[0],))
 
 
 def _model_inputs(gait: Gait2D, model: Model, torque: ca.SX, belt: ca.SX) -> list[ca.SX]:

@@ -159,7 +159,7 @@ class GaitSimulationSettings:
     belt_record: Path | None = None
     motor_noise: float = 0.0
     structure: str = "full"
-    feedback: str = "joints"
+    feedback: str = "all"
     animation_seconds: float = 5.0
 
     def problems(self) -> list[str]:
