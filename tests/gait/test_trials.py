@@ -350,7 +350,7 @@ def test_an_unstable_trial_controller_is_refused_after_settling(monkeypatch, tmp
 
 
 def test_belt_input_from_the_measured_record():
-    from colloc.gait.workflow import GaitSimulationSettings, belt_input
+    from colloc.gait.settings import GaitSimulationSettings, belt_input
 
     settings = GaitSimulationSettings(duration=400.0, speed=1.0)
     (times, speed), description = belt_input(settings)
@@ -378,7 +378,8 @@ def test_simulate_trial_writes_a_complete_output(monkeypatch, tmp_path):
     steps = []
     settings = GaitSimulationSettings(
         duration=6.0, speed=1.1, seed=5, out=out, num_points=4, animation_seconds=0.5,
-        structure="joint-isolated", body_mass=70.0, motor_noise=2.0, cache=False,
+        structure="joint-isolated", feedback="joints", body_mass=70.0, motor_noise=2.0,
+        cache=False,
     )  # fmt: skip
     result = simulate_trial(settings, progress=lambda step, detail: steps.append(step))
     assert steps == ["cycle", "settle", "design", "simulate", "trial", "figures", "animation"]
@@ -504,3 +505,14 @@ def test_cli_runs_the_workflow_and_reports_strides(monkeypatch, capsys, tmp_path
     assert designs[1][2]["feedback"].tolist() == [*range(2, 9), *range(11, 18)]
     assert "strides: 5 right, 4 left; fell: False (walked the whole duration)" in printed
     assert (out / "summary.json").is_file()
+
+
+def test_joint_isolated_structure_needs_joint_feedback():
+    from colloc.gait.settings import GaitSimulationSettings
+
+    bad = GaitSimulationSettings(structure="joint-isolated", feedback="joints+trunk")
+    assert bad.problems() == [
+        "structure: 'joint-isolated' needs feedback 'joints' (each torque from its own joint's "
+        "angle and rate), found feedback 'joints+trunk'"
+    ]
+    assert GaitSimulationSettings(structure="joint-isolated", feedback="joints").problems() == []

@@ -74,3 +74,19 @@ def test_the_controller_walks_20_s_and_every_stride_is_detected(dyn):
     assert (
         cycle.states[:, 1].min() - 0.05 < qay.min() and qay.max() < cycle.states[:, 1].max() + 0.05
     )
+
+
+@pytest.mark.slow
+def test_the_default_trial_walks_the_perturbed_belt(tmp_path):
+    """``colloc gait simulate`` defaults, 60 s: no fall, every stride detected."""
+    from colloc.gait.workflow import GaitSimulationSettings, simulate_trial
+
+    settings = GaitSimulationSettings(duration=60.0, out=tmp_path, animation_seconds=1.0)
+    result = simulate_trial(settings)
+    assert not result.fell, result.summary["message"]
+    record = result.record
+    strides = np.diff(record.right_heel_strikes)
+    assert np.all((strides > 0.9) & (strides < 1.5))
+    assert record.right_heel_strikes.size == pytest.approx(60.0 / result.cycle.duration, abs=3)
+    assert result.summary["cycle"]["settle_residual"] < 1e-3
+    assert result.design_info.spectral_radius < 1

@@ -265,7 +265,7 @@ def _cost_function(
         ca.DM(h).T,
         ca.DM(_colmajor(noise)),
     )
-    state = ca.vertcat(ca.DM(x0.ravel(order="F")), 0.0)
+    state: Any = ca.vertcat(ca.DM(x0.ravel(order="F")), 0.0)
     for _ in range(horizon):
         state = period(state, data)[:, -1]
     log_cost = ca.log(state[-1])

@@ -25,20 +25,18 @@ are never touched.
 from __future__ import annotations
 
 import math
-import os
 import secrets
 import shutil
 import time
-from collections.abc import Callable, Iterator, Mapping
+from collections.abc import Callable, Iterator
 from contextlib import contextmanager
-from dataclasses import asdict, dataclass, field
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from colloc.data.belt import read_belt_perturbation
-from colloc.gait.closed_loop import perturbation_belt_speed, simulate_walking
+from colloc.gait.closed_loop import simulate_walking
 from colloc.gait.cycle import find_walking_cycle
 from colloc.gait.design import FEEDBACK_SETS, REGULATED, design_controller
 from colloc.gait.orbit import GaitDynamics
@@ -54,21 +52,21 @@ from colloc.gait.outputs import (
     write_figures,
     write_json,
 )
+from colloc.gait.settings import (
+    GaitSimulationSettings,
+    belt_input,
+)
 from colloc.gait.settle import settle_cycle
 from colloc.gait.trials import (
     STATE_SIGNAL_NAMES,
     controller_metadata,
     record_to_trial,
-    resolve_noise_std,
     synthetic_metadata,
 )
 from colloc.models.gait2d_params import load_parameters
 from colloc.plot.gait_animation import StickFigureGeometry
 
 Progress = Callable[[str, str], None]
-
-#: Environment variable naming the default belt-speed record.
-BELT_RECORD_ENV = "COLLOC_BELT_RECORD"
 
 #: How the simulated controller computes its phase (see colloc.gait.closed_loop).
 SIMULATION_PHASE = (
@@ -94,151 +92,6 @@ SETTLED_DESIGN_SAMPLES = 1201
 
 class UnstableControllerError(ValueError):
     """The designed controller does not stabilise the walking cycle (Floquet radius >= 1)."""
-
-
-#: Gait-controller structures accepted by :attr:`GaitSimulationSettings.structure`.
-STRUCTURES: tuple[str, ...] = ("full", "joint-isolated")
-
-
-@dataclass(frozen=True)
-class GaitSimulationSettings:
-    """Everything that determines a synthetic walking trial.
-
-    Attributes
-    ----------
-    duration : float
-        Seconds of walking to simulate, > 0.
-    speed : float
-        Mean belt speed [m/s], > 0 (the cycle is found at this speed).
-    seed : int
-        Seeds the sensor noise (and, through the simulation, any random belt signal), >= 0.
-    out : Path
-        Output directory (created if missing).
-    num_points : int
-        ``P``: controller schedule points over the stride, >= 2.
-    noise : float or mapping
-        Sensor noise: a multiple of :data:`colloc.gait.trials.DEFAULT_NOISE_STD` (0 for none)
-        or group -> standard deviation (see :func:`colloc.gait.trials.resolve_noise_std`).
-    sample_rate : float
-        Trial sample rate [Hz], > 0.
-    cache : bool or path
-        Build cache for the collocation problem of the cycle (True: default location).
-    body_mass, height : float
-        The simulated subject [kg], [m].
-    perturbed : bool
-        Drive the belt with the measured perturbation record; False: constant ``speed``.
-    belt_record : Path or None
-        The belt-speed record (:func:`colloc.data.belt.read_belt_perturbation` format),
-        shifted to mean ``speed`` with its deviations kept and mirrored in time beyond its
-        end (:func:`colloc.gait.closed_loop.perturbation_belt_speed`); None: see
-        :func:`default_belt_record`.
-    motor_noise : float
-        Standard deviation [N·m] of Gaussian noise added to each joint torque in the
-        simulation (seeded by ``seed``); 0 for none.
-    structure : str
-        Controller structure, one of :data:`STRUCTURES`.
-    feedback : str
-        The states the controller feeds back, a key of
-        :data:`colloc.gait.design.FEEDBACK_SETS`: ``"joints"`` (the six joint angles and
-        rates), ``"joints+trunk"`` or ``"all"`` (every state but the hip's forward position).
-    animation_seconds : float
-        Length of the animation and of the contact-force window [s], > 0.
-    """
-
-    duration: float = 60.0
-    speed: float = 1.2
-    seed: int = 0
-    out: Path = Path("gait-simulation")
-    num_points: int = 200
-    noise: float | Mapping[str, float] = 1.0
-    sample_rate: float = 100.0
-    cache: bool | str | os.PathLike[str] = True
-    body_mass: float = 75.0
-    height: float = 1.80
-    perturbed: bool = True
-    belt_record: Path | None = None
-    motor_noise: float = 0.0
-    structure: str = "full"
-    feedback: str = "all"
-    animation_seconds: float = 5.0
-
-    def problems(self) -> list[str]:
-        """Every problem with these settings (empty when they are usable)."""
-        out = []
-        positive = {
-            "duration": "seconds",
-            "speed": "m/s",
-            "sample_rate": "Hz",
-            "body_mass": "kg",
-            "height": "m",
-            "animation_seconds": "seconds",
-        }
-        for name, unit in positive.items():
-            value = getattr(self, name)
-            if not (_finite(value) and value > 0):
-                out.append(f"{name}: expected a positive finite number [{unit}], found {value!r}")
-        if not (_finite(self.motor_noise) and self.motor_noise >= 0):
-            out.append(
-                f"motor_noise: expected a finite number >= 0 [N·m], found {self.motor_noise!r}"
-            )
-        if not isinstance(self.perturbed, bool):
-            out.append(f"perturbed: expected True or False, found {self.perturbed!r}")
-        if isinstance(self.seed, bool) or not isinstance(self.seed, int) or self.seed < 0:
-            out.append(f"seed: expected an integer >= 0, found {self.seed!r}")
-        points = self.num_points
-        if isinstance(points, bool) or not isinstance(points, int) or points < 2:
-            out.append(f"num_points: expected an integer >= 2, found {points!r}")
-        try:
-            resolve_noise_std(self.noise)
-        except (TypeError, ValueError) as error:
-            out.append(f"noise: {error}")
-        if not isinstance(self.cache, bool | str | os.PathLike):
-            out.append(f"cache: expected a bool or a directory path, found {self.cache!r}")
-        if self.structure not in STRUCTURES:
-            out.append(f"structure: expected one of {list(STRUCTURES)}, found {self.structure!r}")
-        if self.feedback not in FEEDBACK_SETS:
-            out.append(f"feedback: expected one of {list(FEEDBACK_SETS)}, found {self.feedback!r}")
-        elif self.structure == "joint-isolated" and self.feedback != "joints":
-            out.append(
-                "structure: 'joint-isolated' needs feedback 'joints' (each torque from its own "
-                f"joint's angle and rate), found feedback {self.feedback!r}"
-            )
-        if not isinstance(self.out, str | os.PathLike):
-            out.append(f"out: expected a directory path, found {type(self.out).__name__}")
-        elif Path(self.out).exists() and not Path(self.out).is_dir():
-            out.append(f"out: expected a directory, found an existing file {str(self.out)!r}")
-        if self.perturbed is True and not self.belt_path.is_file():
-            out.append(
-                f"belt_record: expected an existing belt-speed record file, found "
-                f"{str(self.belt_path)!r}; pass its path (or set ${BELT_RECORD_ENV}), or walk "
-                "on a constant-speed belt (perturbed=False)"
-            )
-        return out
-
-    @property
-    def belt_path(self) -> Path:
-        """:attr:`belt_record`, or :func:`default_belt_record` when it is None."""
-        return default_belt_record() if self.belt_record is None else Path(self.belt_record)
-
-    def validate(self) -> None:
-        """Raise ``ValueError`` listing every problem (before any work starts)."""
-        found = self.problems()
-        if found:
-            lines = "\n".join(f"  - {p}" for p in found)
-            raise ValueError(f"invalid gait simulation settings:\n{lines}")
-
-    def to_dict(self) -> dict[str, Any]:
-        """Plain (JSON-ready) settings."""
-        plain = asdict(self)
-        for key in ("out", "belt_record", "cache"):
-            if isinstance(plain[key], os.PathLike):
-                plain[key] = os.fspath(plain[key])
-        plain["noise"] = dict(self.noise) if isinstance(self.noise, Mapping) else float(self.noise)
-        return plain
-
-
-def _finite(value: object) -> bool:
-    return isinstance(value, int | float) and not isinstance(value, bool) and math.isfinite(value)
 
 
 @dataclass
@@ -301,56 +154,6 @@ def motor_seed(seed: int) -> int:
     same standard-normal numbers, so the motor noise gets a seed spawned from it.
     """
     return int(np.random.SeedSequence([seed, 1]).generate_state(1)[0])
-
-
-def default_belt_record() -> Path:
-    """The belt-speed record used by default.
-
-    ``$COLLOC_BELT_RECORD`` if set, else the copy shipped in ``colloc/gait/reference``: a
-    measured pseudo-random belt perturbation of the CSU R-Mill, 1.2 m/s nominal, 100 Hz
-    (see its SOURCE.md).
-    """
-    if os.environ.get(BELT_RECORD_ENV):
-        return Path(os.environ[BELT_RECORD_ENV])
-    return Path(__file__).resolve().parent / "reference" / "RandomSlowSpeed1.txt"
-
-
-def belt_input(
-    settings: GaitSimulationSettings,
-) -> tuple[tuple[np.ndarray, np.ndarray] | None, dict[str, Any]]:
-    """The belt-speed samples for the simulation and their description for the metadata.
-
-    Parameters
-    ----------
-    settings : GaitSimulationSettings
-
-    Returns
-    -------
-    belt_speed : (times, speed) or None
-        None for a constant belt at ``settings.speed``.
-    description : dict
-        ``source``, ``mean_speed`` and, for a record, ``rescaling`` and the record's mean
-        and standard deviation.
-    """
-    if not settings.perturbed:
-        return None, {"source": "constant", "mean_speed": float(settings.speed)}
-    path = settings.belt_path
-    _, recorded = read_belt_perturbation(path)
-    samples = perturbation_belt_speed(
-        path, settings.speed, settings.duration, sample_rate=settings.sample_rate
-    )
-    description = {
-        "source": os.fspath(path),
-        "rescaling": (
-            "v = mean_speed + (v_record - mean(v_record)) (colloc.data.rescale_belt_speed, "
-            "deviation_scale 1), mirrored in time beyond the end of the record"
-        ),
-        "mean_speed": float(settings.speed),
-        "deviation_scale": 1.0,
-        "record_mean_speed": float(np.mean(recorded)),
-        "record_std_speed": float(np.std(recorded)),
-    }
-    return samples, description
 
 
 def check_stable(
