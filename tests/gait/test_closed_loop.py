@@ -6,15 +6,12 @@ import numpy as np
 import pytest
 import scipy.optimize
 
-from colloc.gait.closed_loop import (
-    _crossing,
-    perturbation_belt_speed,
-    simulate_walking,
-    strike_phase,
-)
+from colloc.data.belt import perturbation_belt_speed
+from colloc.gait.closed_loop import simulate_walking
 from colloc.gait.cycle import WalkingCycle
 from colloc.gait.design import JOINT_STATES, design_controller
 from colloc.gait.orbit import GaitDynamics
+from colloc.gait.strikes import strike_phase, threshold_crossing
 
 BELT_FILE = (
     Path(__file__).resolve().parents[3]
@@ -90,9 +87,9 @@ def test_seeded_motor_noise_is_reproducible(dyn, standing, controller):
 
 
 def test_threshold_crossing_is_interpolated():
-    assert _crossing(1.0, 1.01, 5.0, 45.0, 25.0) == pytest.approx(1.005)
-    assert _crossing(1.0, 1.01, 30.0, 45.0, 25.0) is None
-    assert _crossing(1.0, 1.01, 45.0, 5.0, 25.0) is None
+    assert threshold_crossing(1.0, 1.01, 5.0, 45.0, 25.0) == pytest.approx(1.005)
+    assert threshold_crossing(1.0, 1.01, 30.0, 45.0, 25.0) is None
+    assert threshold_crossing(1.0, 1.01, 45.0, 5.0, 25.0) is None
 
 
 def test_strike_phase_is_where_the_detector_fires_on_the_cycle(standing):

@@ -1,6 +1,11 @@
 """Measurement I/O for gait trials: trial files, heel-strike events, gait phase, records."""
 
-from colloc.data.belt import belt_position, read_belt_perturbation, rescale_belt_speed
+from colloc.data.belt import (
+    belt_position,
+    perturbation_belt_speed,
+    read_belt_perturbation,
+    rescale_belt_speed,
+)
 from colloc.data.checks import TrialError
 from colloc.data.columns import (
     COLUMN_UNITS,
@@ -28,6 +33,7 @@ __all__ = [
     "detect_heel_strikes",
     "gait_phase",
     "unwrapped_gait_phase",
+    "perturbation_belt_speed",
     "read_belt_perturbation",
     "read_trial",
     "read_vertical_grf",

@@ -149,3 +149,37 @@ def belt_position(time: ArrayLike, velocity: ArrayLike, initial: float = 0.0) ->
     if problems:
         raise ValueError("; ".join(problems))
     return initial + cumulative_trapezoid(v, t, initial=0.0)
+
+
+def perturbation_belt_speed(
+    path: str | os.PathLike[str], mean_speed: float, duration: float, sample_rate: float = 100.0
+) -> tuple[np.ndarray, np.ndarray]:
+    """A measured belt-speed record moved to ``mean_speed`` and stretched to ``duration``.
+
+    Beyond its end the record continues mirrored in time (played backward, then forward
+    again, ...), which keeps the belt speed continuous where a plain loop would jump.
+
+    Parameters
+    ----------
+    path : path-like
+        Record readable by :func:`colloc.data.belt.read_belt_perturbation`.
+    mean_speed : float
+        Mean belt speed [m/s] (:func:`colloc.data.belt.rescale_belt_speed`).
+    duration : float
+        [s], > 0.
+    sample_rate : float
+        [Hz] of the returned samples.
+
+    Returns
+    -------
+    times, speed : ndarray
+    """
+    if not (np.isfinite(duration) and duration > 0):
+        raise ValueError(f"duration: expected a positive number of seconds, found {duration!r}")
+    t_rec, v_rec = read_belt_perturbation(path)
+    v_rec = rescale_belt_speed(v_rec, mean_speed)
+    times = np.arange(int(round(duration * sample_rate)) + 1) / sample_rate
+    length = t_rec[-1] - t_rec[0]
+    folded = np.mod(times, 2 * length)
+    folded = np.where(folded > length, 2 * length - folded, folded) + t_rec[0]
+    return times, np.interp(folded, t_rec, v_rec)

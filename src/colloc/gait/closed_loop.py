@@ -29,7 +29,6 @@ there. The belt speed and the motor noise are linear between samples.
 from __future__ import annotations
 
 import logging
-import os
 import time
 from dataclasses import dataclass, field
 from typing import Any
@@ -37,20 +36,20 @@ from typing import Any
 import casadi as ca
 import numpy as np
 
-from colloc.data.belt import belt_position, read_belt_perturbation, rescale_belt_speed
+from colloc.data.belt import belt_position
 from colloc.gait.design import JOINT_STATES
 from colloc.gait.orbit import NUM_STATES, NUM_TORQUES, GaitDynamics
+from colloc.gait.strikes import (
+    HEEL_STRIKE_THRESHOLD,
+    MIN_STRIDE_INTERVAL,
+    strike_phase,
+    threshold_crossing,
+)
 
 logger = logging.getLogger(__name__)
 
 #: Samples per integrator call (a call restarts early at a right heel strike).
 CHUNK_SAMPLES = 25
-#: A foot's vertical force [N] whose upward crossing is a heel strike. Well above the
-#: 20-50 N with which a swing foot of the collocation cycles grazes the belt, which a
-#: lower threshold took for a heel strike (resetting the phase mid-swing).
-HEEL_STRIKE_THRESHOLD = 100.0
-#: Minimum time between heel strikes of one foot [s] (rejects contact chatter).
-MIN_STRIDE_INTERVAL = 0.4
 
 
 @dataclass
@@ -97,40 +96,6 @@ class ClosedLoopRecord:
         """Total vertical floor force on the right and left foot, shape (N, 2) [N]."""
         fy = self.contact_forces[:, 1::2]
         return np.column_stack([fy[:, 0] + fy[:, 1], fy[:, 2] + fy[:, 3]])
-
-
-def perturbation_belt_speed(
-    path: str | os.PathLike[str], mean_speed: float, duration: float, sample_rate: float = 100.0
-) -> tuple[np.ndarray, np.ndarray]:
-    """A measured belt-speed record moved to ``mean_speed`` and stretched to ``duration``.
-
-    Beyond its end the record continues mirrored in time (played backward, then forward
-    again, ...), which keeps the belt speed continuous where a plain loop would jump.
-
-    Parameters
-    ----------
-    path : path-like
-        Record readable by :func:`colloc.data.belt.read_belt_perturbation`.
-    mean_speed : float
-        Mean belt speed [m/s] (:func:`colloc.data.belt.rescale_belt_speed`).
-    duration : float
-        [s], > 0.
-    sample_rate : float
-        [Hz] of the returned samples.
-
-    Returns
-    -------
-    times, speed : ndarray
-    """
-    if not (np.isfinite(duration) and duration > 0):
-        raise ValueError(f"duration: expected a positive number of seconds, found {duration!r}")
-    t_rec, v_rec = read_belt_perturbation(path)
-    v_rec = rescale_belt_speed(v_rec, mean_speed)
-    times = np.arange(int(round(duration * sample_rate)) + 1) / sample_rate
-    length = t_rec[-1] - t_rec[0]
-    folded = np.mod(times, 2 * length)
-    folded = np.where(folded > length, 2 * length - folded, folded) + t_rec[0]
-    return times, np.interp(folded, t_rec, v_rec)
 
 
 def _schedule_window(P: int, chunk: int, h: float, nominal: float) -> int:
@@ -328,7 +293,9 @@ def simulate_walking(
                 i = k
                 break
             for col, side in enumerate(("right", "left")):
-                crossing = _crossing(times[k - 1], times[k], fy[k - 1, col], fy[k, col], threshold)
+                crossing = threshold_crossing(
+                    times[k - 1], times[k], fy[k - 1, col], fy[k, col], threshold
+                )
                 if crossing is None or (
                     strikes[side] and crossing - strikes[side][-1] < MIN_STRIDE_INTERVAL
                 ):
@@ -374,45 +341,12 @@ def simulate_walking(
     return record
 
 
-def strike_phase(cycle: Any, threshold: float = HEEL_STRIKE_THRESHOLD) -> float:
-    """Phase at which the online detector finds the right heel strike on the cycle itself.
-
-    The first upward crossing of ``threshold`` by the right foot's vertical floor force over
-    the cycle's nodes, interpolated linearly, as a fraction of the stride; 0 if the force
-    never crosses it (e.g. standing).
-
-    Parameters
-    ----------
-    cycle : WalkingCycle
-    threshold : float
-        [N], as given to :func:`simulate_walking`.
-
-    Returns
-    -------
-    float
-        In ``[0, 1)``.
-    """
-    t = np.asarray(cycle.times, float)
-    fy = np.asarray(cycle.vertical_grf, float)[:, 0]
-    for k in range(1, t.size):
-        crossing = _crossing(t[k - 1], t[k], fy[k - 1], fy[k], threshold)
-        if crossing is not None:
-            return float((crossing - t[0]) / cycle.duration % 1.0)
-    return 0.0
-
-
 def _next_duration(measured: float, nominal: float) -> float:
     if not np.isfinite(measured):
         return nominal
     # A stride far from nominal is a detection artefact or a stumble; do not let it
     # distort the next stride's phase rate beyond a plausible range.
     return float(np.clip(measured, 0.7 * nominal, 1.3 * nominal))
-
-
-def _crossing(t0: float, t1: float, f0: float, f1: float, threshold: float) -> float | None:
-    if f0 < threshold <= f1:
-        return t0 + (threshold - f0) / (f1 - f0) * (t1 - t0)
-    return None
 
 
 def _foot_forces(dyn: GaitDynamics, x: np.ndarray, v: float) -> np.ndarray:
@@ -467,9 +401,4 @@ def _check(
         raise ValueError("simulate_walking: " + "; ".join(problems))
 
 
-__all__ = [
-    "ClosedLoopRecord",
-    "perturbation_belt_speed",
-    "simulate_walking",
-    "strike_phase",
-]
+__all__ = ["ClosedLoopRecord", "simulate_walking"]

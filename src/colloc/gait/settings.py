@@ -16,8 +16,7 @@ from typing import Any
 
 import numpy as np
 
-from colloc.data.belt import read_belt_perturbation
-from colloc.gait.closed_loop import perturbation_belt_speed
+from colloc.data.belt import perturbation_belt_speed, read_belt_perturbation
 from colloc.gait.design import FEEDBACK_SETS
 from colloc.gait.trials import resolve_noise_std
 
@@ -58,7 +57,7 @@ class GaitSimulationSettings:
     belt_record : Path or None
         The belt-speed record (:func:`colloc.data.belt.read_belt_perturbation` format),
         shifted to mean ``speed`` with its deviations kept and mirrored in time beyond its
-        end (:func:`colloc.gait.closed_loop.perturbation_belt_speed`); None: see
+        end (:func:`colloc.data.belt.perturbation_belt_speed`); None: see
         :func:`default_belt_record`.
     motor_noise : float
         Standard deviation [N·m] of Gaussian noise added to each joint torque in the

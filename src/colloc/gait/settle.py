@@ -15,7 +15,7 @@ designed along it has ``T = T*`` and ``s = s*`` on the orbit itself.
 
 The settled stride starts ``phi_0`` of a stride before a right heel strike, where
 ``phi_0`` is the strike phase of the collocation cycle (see
-:func:`colloc.gait.closed_loop.strike_phase`), so that the new cycle's ``phi = 0`` sits at
+:func:`colloc.gait.strikes.strike_phase`), so that the new cycle's ``phi = 0`` sits at
 the same place in the gait as the old one's; its duration is the settled stride's.
 Nothing forces the hip's forward position ``qax`` to repeat (no force depends on it): it is
 reported relative to the start, and its drift per stride is in
@@ -29,9 +29,10 @@ from typing import Any
 import numpy as np
 from scipy.interpolate import CubicSpline
 
-from colloc.gait.closed_loop import simulate_walking, strike_phase
+from colloc.gait.closed_loop import simulate_walking
 from colloc.gait.cycle import WalkingCycle
 from colloc.gait.orbit import GaitDynamics
+from colloc.gait.strikes import strike_phase
 
 #: Strides walked before the last one is taken (measured on the default 1.2 m/s cycle: the
 #: start states of consecutive strides still differ by 6e-4 after 11 strides).

@@ -1,0 +1,72 @@
+"""Heel strikes as the online detector of the closed-loop simulation sees them.
+
+A heel strike is an upward crossing of a force threshold by a foot's total vertical floor
+force, interpolated linearly between two samples; :func:`strike_phase` is where that
+detector fires on a designed cycle, the phase to which the simulated controller resets.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+
+#: A foot's vertical force [N] whose upward crossing is a heel strike. Well above the
+#: 20-50 N with which a swing foot of the collocation cycles grazes the belt, which a
+#: lower threshold took for a heel strike (resetting the phase mid-swing).
+HEEL_STRIKE_THRESHOLD = 100.0
+#: Minimum time between heel strikes of one foot [s] (rejects contact chatter).
+MIN_STRIDE_INTERVAL = 0.4
+
+
+def strike_phase(cycle: Any, threshold: float = HEEL_STRIKE_THRESHOLD) -> float:
+    """Phase at which the online detector finds the right heel strike on the cycle itself.
+
+    The first upward crossing of ``threshold`` by the right foot's vertical floor force over
+    the cycle's nodes, interpolated linearly, as a fraction of the stride; 0 if the force
+    never crosses it (e.g. standing).
+
+    Parameters
+    ----------
+    cycle : WalkingCycle
+    threshold : float
+        [N], as given to :func:`simulate_walking`.
+
+    Returns
+    -------
+    float
+        In ``[0, 1)``.
+    """
+    t = np.asarray(cycle.times, float)
+    fy = np.asarray(cycle.vertical_grf, float)[:, 0]
+    for k in range(1, t.size):
+        crossing = threshold_crossing(t[k - 1], t[k], fy[k - 1], fy[k], threshold)
+        if crossing is not None:
+            return float((crossing - t[0]) / cycle.duration % 1.0)
+    return 0.0
+
+
+def threshold_crossing(
+    t0: float, t1: float, f0: float, f1: float, threshold: float
+) -> float | None:
+    """Time at which ``f`` rises through ``threshold`` between two samples, or None.
+
+    Parameters
+    ----------
+    t0, t1 : float
+        Sample times.
+    f0, f1 : float
+        Values at them.
+    threshold : float
+
+    Returns
+    -------
+    float or None
+        Linear interpolation of the crossing if ``f0 < threshold <= f1``.
+    """
+    if f0 < threshold <= f1:
+        return t0 + (threshold - f0) / (f1 - f0) * (t1 - t0)
+    return None
+
+
+__all__ = ["HEEL_STRIKE_THRESHOLD", "MIN_STRIDE_INTERVAL", "strike_phase", "threshold_crossing"]
