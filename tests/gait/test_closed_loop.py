@@ -8,10 +8,10 @@ import scipy.optimize
 
 from colloc.data.belt import perturbation_belt_speed
 from colloc.gait.closed_loop import simulate_walking
-from colloc.gait.cycle import WalkingCycle
 from colloc.gait.design import JOINT_STATES, design_controller
 from colloc.gait.orbit import GaitDynamics
 from colloc.gait.strikes import strike_phase, threshold_crossing
+from colloc.gait.walking_cycle import WalkingCycle
 
 BELT_FILE = (
     Path(__file__).resolve().parents[3]

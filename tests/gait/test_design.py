@@ -4,7 +4,6 @@ import numpy as np
 import pytest
 import scipy.optimize
 
-from colloc.gait.cycle import WalkingCycle
 from colloc.gait.design import (
     JOINT_STATES,
     REGULATED,
@@ -12,6 +11,7 @@ from colloc.gait.design import (
     joint_feedback_multipliers,
 )
 from colloc.gait.orbit import GaitDynamics, cycle_linearization
+from colloc.gait.walking_cycle import WalkingCycle
 from colloc.models.gait2d_params import load_parameters
 
 

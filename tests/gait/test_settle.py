@@ -6,11 +6,11 @@ import numpy as np
 import pytest
 import scipy.integrate
 
-from colloc.gait.cycle import WalkingCycle
 from colloc.gait.design import REGULATED, design_controller
 from colloc.gait.orbit import GaitDynamics
 from colloc.gait.settle import CycleNotSettledError, settle_cycle
 from colloc.gait.strikes import strike_phase
+from colloc.gait.walking_cycle import WalkingCycle
 
 CYCLE_FILE = Path(__file__).resolve().parent / "data" / "walking_cycle_60.npz"
 

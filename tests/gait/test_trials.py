@@ -15,14 +15,12 @@ from colloc.data.columns import (
     TORQUE_COLUMNS,
 )
 from colloc.data.trial import read_trial
+from colloc.gait.metadata import controller_from_metadata, controller_metadata, synthetic_metadata
 from colloc.gait.trials import (
     DEFAULT_NOISE_STD,
     NOISE_GROUPS,
-    controller_from_metadata,
-    controller_metadata,
     record_to_trial,
     resolve_noise_std,
-    synthetic_metadata,
     true_signals,
 )
 
@@ -216,7 +214,7 @@ def fake_pipeline(monkeypatch, calls, spectral_radius=0.5):
     """Replace the expensive steps by synthetic stand-ins that log their arguments."""
     from colloc.control.gain_scheduled import joint_isolated_mask
     from colloc.gait.closed_loop import ClosedLoopRecord
-    from colloc.gait.cycle import WalkingCycle
+    from colloc.gait.walking_cycle import WalkingCycle
 
     Tstar, K, mask = make_controller()
 
@@ -367,7 +365,7 @@ def test_belt_input_from_the_measured_record():
 def test_simulate_trial_writes_a_complete_output(monkeypatch, tmp_path):
     import json
 
-    from colloc.gait.cycle import WalkingCycle
+    from colloc.gait.walking_cycle import WalkingCycle
     from colloc.gait.workflow import GaitSimulationSettings, motor_seed, simulate_trial
 
     calls: list = []

@@ -10,10 +10,10 @@ import numpy as np
 import pytest
 
 from colloc.gait.closed_loop import simulate_walking
-from colloc.gait.cycle import WalkingCycle
 from colloc.gait.design import design_controller
 from colloc.gait.orbit import GaitDynamics
 from colloc.gait.strikes import strike_phase
+from colloc.gait.walking_cycle import WalkingCycle
 
 CYCLE_FILE = Path(__file__).resolve().parent / "data" / "walking_cycle_60.npz"
 #: Full-state feedback (all states but the hip's forward position).

@@ -30,9 +30,9 @@ import numpy as np
 from scipy.interpolate import CubicSpline
 
 from colloc.gait.closed_loop import simulate_walking
-from colloc.gait.cycle import WalkingCycle
 from colloc.gait.orbit import GaitDynamics
 from colloc.gait.strikes import strike_phase
+from colloc.gait.walking_cycle import WalkingCycle
 
 #: Strides walked before the last one is taken (measured on the default 1.2 m/s cycle: the
 #: start states of consecutive strides still differ by 6e-4 after 11 strides).

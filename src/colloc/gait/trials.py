@@ -4,8 +4,9 @@ A gait lab's processing gives joint angles and rates (inverse kinematics), trunk
 and orientation, belt speed and position, heel-strike times and, from inverse dynamics,
 joint torques. :func:`record_to_trial` turns a closed-loop simulation record into exactly
 that, with seeded Gaussian sensor noise added to every sampled signal, so that the noise-free
-truth is never in the trial file. :func:`synthetic_metadata` records what generated the
-trial (above all the true controller); :func:`controller_from_metadata` reads it back.
+truth is never in the trial file. :func:`colloc.gait.metadata.synthetic_metadata` records
+what generated the trial (above all the true controller);
+:func:`colloc.gait.metadata.controller_from_metadata` reads it back.
 
 Mapping from the gait2d state ``[q, u]`` (see :mod:`colloc.models.gait2d`):
 
@@ -27,7 +28,7 @@ Both use the same sign conventions, so no sign changes are needed.
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping, Sequence
+from collections.abc import Mapping
 from typing import Any, Protocol
 
 import numpy as np
@@ -70,13 +71,6 @@ NOISE_GROUPS: dict[str, tuple[str, ...]] = {
     "belt_position": BELT_COLUMNS[1:],
     "joint_torque": TORQUE_COLUMNS,
 }
-
-#: How the controller's schedule relates to the trial (written into the metadata).
-PHASE_CONVENTION = (
-    "phi in [0, 1): 0 at a right heel strike, rising linearly in time to 1 at the next "
-    "right heel strike (colloc.data.gait_phase with the right heel strikes); schedule point p "
-    "sits at phi = p / P and T*, K are interpolated linearly and periodically in phi"
-)
 
 _NUM_COORDINATES = 9
 _NUM_STATES = 2 * _NUM_COORDINATES
@@ -230,7 +224,8 @@ def record_to_trial(
     seed : int
         Seed of the noise (``numpy.random.default_rng(seed)``), >= 0.
     metadata : mapping, optional
-        Further metadata, e.g. from :func:`synthetic_metadata`; its keys win over the
+        Further metadata, e.g. from :func:`colloc.gait.metadata.synthetic_metadata`; its
+        keys win over the
         ``sample_rate``/``noise`` entries this function adds.
     sample_rate : float or None
         Resample the record onto ``times[0] + k / sample_rate`` by linear interpolation
@@ -299,182 +294,3 @@ def record_to_trial(
     }
     info.update(metadata or {})
     return Trial(time, measured, strikes["right"], strikes["left"], info)
-
-
-#: Name of each gait-model state ``[q, u]`` as the trial calls the signal (the trunk's
-#: velocities are not trial columns; they are named ``<column>_rate``).
-STATE_SIGNAL_NAMES: tuple[str, ...] = (
-    TRUNK_COLUMNS
-    + JOINT_ANGLE_COLUMNS
-    + tuple(f"{name}_rate" for name in TRUNK_COLUMNS)
-    + JOINT_RATE_COLUMNS
-)
-
-
-def controller_metadata(
-    Tstar: np.ndarray,
-    K: np.ndarray,
-    mask: np.ndarray,
-    *,
-    structure: str | None = None,
-    phase_convention: str = PHASE_CONVENTION,
-    feedback: Sequence[str] | None = None,
-) -> dict[str, Any]:
-    """The true controller ``T = T*(phi) - K(phi) s`` as plain nested lists.
-
-    Parameters
-    ----------
-    Tstar : array_like, shape (P, 6)
-        Scheduled torques [N·m].
-    K : array_like, shape (P, 6, n_s)
-        Scheduled gains on ``s``.
-    mask : array_like of bool, shape (6, n_s)
-        Which gains exist (the structure); gains outside it must be zero.
-    structure : str, optional
-        Name of the structure (``"full"``, ``"joint-isolated"``), recorded as is.
-    phase_convention : str
-        How the controller's phase was computed; default :data:`PHASE_CONVENTION`.
-    feedback : sequence of str, optional
-        Names of the fed-back signals ``s`` (see :data:`STATE_SIGNAL_NAMES`); default the six
-        joint angles then the six joint rates.
-
-    Returns
-    -------
-    dict
-        ``law``, ``num_points``, ``phase_convention``, ``inputs`` (torque columns),
-        ``feedback`` (angle then rate columns), ``structure``, ``mask``, ``Tstar``, ``K``.
-
-    Raises
-    ------
-    ValueError
-        If the shapes disagree, values are not finite, or ``K`` is nonzero outside ``mask``.
-    """
-    Tstar, K, mask = np.asarray(Tstar, float), np.asarray(K, float), np.asarray(mask)
-    names = list(JOINT_ANGLE_COLUMNS + JOINT_RATE_COLUMNS) if feedback is None else list(feedback)
-    m, ns = len(TORQUE_COLUMNS), len(names)
-    P = Tstar.shape[0] if Tstar.ndim == 2 else -1
-    problems = []
-    unknown = [n for n in names if n not in STATE_SIGNAL_NAMES]
-    if unknown or len(set(names)) != len(names):
-        problems.append(
-            f"feedback: expected distinct names from {list(STATE_SIGNAL_NAMES)}, found {names}"
-        )
-    if Tstar.shape != (P, m) or P < 1:
-        problems.append(f"Tstar: expected shape (P, {m}), found {Tstar.shape}")
-    if K.shape != (P, m, ns):
-        problems.append(f"K: expected shape ({P}, {m}, {ns}) with P from Tstar, found {K.shape}")
-    if mask.shape != (m, ns) or mask.dtype != bool:
-        problems.append(
-            f"mask: expected a bool array of shape ({m}, {ns}), found {mask.dtype} {mask.shape}"
-        )
-    for name, values in (("Tstar", Tstar), ("K", K)):
-        if not np.all(np.isfinite(values)):
-            problems.append(f"{name}: expected finite values, found NaN/inf")
-    if not problems and np.any(K[:, ~mask] != 0):
-        problems.append("K: has nonzero gains outside mask")
-    if problems:
-        raise ValueError("controller: " + "; ".join(problems))
-    return {
-        "law": "T(t) = Tstar(phi) - K(phi) s(t)",
-        "num_points": int(P),
-        "phase_convention": str(phase_convention),
-        "inputs": list(TORQUE_COLUMNS),
-        "feedback": names,
-        "structure": structure,
-        "mask": mask.tolist(),
-        "Tstar": Tstar.tolist(),
-        "K": K.tolist(),
-    }
-
-
-def controller_from_metadata(
-    metadata: Mapping[str, Any],
-) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Read the true controller back from a synthetic trial's metadata.
-
-    Parameters
-    ----------
-    metadata : mapping
-        ``Trial.metadata`` of a trial made by :func:`synthetic_metadata`.
-
-    Returns
-    -------
-    Tstar : ndarray, shape (P, 6)
-    K : ndarray, shape (P, 6, n_s)
-        Gains on the signals named in ``metadata["controller"]["feedback"]``.
-    mask : ndarray of bool, shape (6, n_s)
-
-    Raises
-    ------
-    KeyError
-        If the metadata has no ``controller`` entry with ``Tstar``, ``K`` and ``mask``.
-    """
-    controller = metadata.get("controller")
-    missing = [
-        k
-        for k in ("Tstar", "K", "mask")
-        if not isinstance(controller, Mapping) or k not in controller
-    ]
-    if missing:
-        raise KeyError(
-            f"metadata: expected a 'controller' mapping with {missing} (a synthetic trial), "
-            f"found keys {sorted(metadata)}"
-        )
-    assert isinstance(controller, Mapping)
-    return (
-        np.asarray(controller["Tstar"], dtype=float),
-        np.asarray(controller["K"], dtype=float),
-        np.asarray(controller["mask"], dtype=bool),
-    )
-
-
-def synthetic_metadata(
-    *,
-    controller: Mapping[str, Any],
-    cycle_speed: float,
-    cycle_duration: float,
-    body_mass: float,
-    height: float,
-    belt: Mapping[str, Any],
-    fell: bool,
-    message: str = "",
-    extra: Mapping[str, Any] | None = None,
-) -> dict[str, Any]:
-    """Metadata of a synthetic perturbed-walking trial.
-
-    Parameters
-    ----------
-    controller : mapping
-        From :func:`controller_metadata`.
-    cycle_speed, cycle_duration : float
-        Walking speed [m/s] and stride duration [s] of the periodic cycle the controller
-        was designed around.
-    body_mass, height : float
-        The simulated subject [kg], [m].
-    belt : mapping
-        Where the belt-speed input came from and how it was rescaled, e.g.
-        ``{"source": ..., "mean_speed": ..., "deviation_scale": ...}``.
-    fell : bool
-        Whether the simulation stopped because the walker fell.
-    message : str
-        The simulation's message.
-    extra : mapping, optional
-        Anything else, merged last.
-
-    Returns
-    -------
-    dict
-        ``synthetic: True``, ``body_mass``, ``height``, ``controller``, ``cycle``, ``belt``,
-        ``simulation``, then ``extra``.
-    """
-    metadata: dict[str, Any] = {
-        "synthetic": True,
-        "body_mass": float(body_mass),
-        "height": float(height),
-        "controller": dict(controller),
-        "cycle": {"speed": float(cycle_speed), "duration": float(cycle_duration)},
-        "belt": dict(belt),
-        "simulation": {"fell": bool(fell), "message": str(message)},
-    }
-    metadata.update(extra or {})
-    return metadata

@@ -39,6 +39,7 @@ import numpy as np
 from colloc.gait.closed_loop import simulate_walking
 from colloc.gait.cycle import find_walking_cycle
 from colloc.gait.design import FEEDBACK_SETS, REGULATED, design_controller
+from colloc.gait.metadata import STATE_SIGNAL_NAMES, controller_metadata, synthetic_metadata
 from colloc.gait.orbit import GaitDynamics
 from colloc.gait.outputs import (
     ANIMATION_FILE,
@@ -57,12 +58,7 @@ from colloc.gait.settings import (
     belt_input,
 )
 from colloc.gait.settle import settle_cycle
-from colloc.gait.trials import (
-    STATE_SIGNAL_NAMES,
-    controller_metadata,
-    record_to_trial,
-    synthetic_metadata,
-)
+from colloc.gait.trials import record_to_trial
 from colloc.models.gait2d_params import load_parameters
 from colloc.plot.gait_animation import StickFigureGeometry
 
