@@ -8,7 +8,7 @@ design whose closed loop is not stable is refused by the workflow; that is repor
 ``refused: <message>`` with no simulation figures.
 
 Usage: python benchmarks/gait_simulate.py [--duration 480] [--speed 1.2] [--points 200]
-       [--feedback joints] [--out benchmarks/results/gait_simulate.json]
+       [--feedback all|joints+trunk|joints] [--out benchmarks/results/gait_simulate.json]
        [--trial-dir /tmp/gait-sim-bench]
 """
 
@@ -85,7 +85,7 @@ def main() -> None:
     parser.add_argument("--duration", type=float, default=480.0)
     parser.add_argument("--speed", type=float, default=1.2)
     parser.add_argument("--points", type=int, default=200)
-    parser.add_argument("--feedback", default="joints")
+    parser.add_argument("--feedback", default="all")
     parser.add_argument("--out", type=Path, default=Path("benchmarks/results/gait_simulate.json"))
     parser.add_argument("--trial-dir", type=Path, default=Path("/tmp/gait-sim-bench"))
     args = parser.parse_args()
