@@ -140,6 +140,11 @@ def test_joint_only_design_on_standing_is_tuned_to_stability(dyn, standing):
     np.testing.assert_allclose(
         np.abs(joint_feedback_multipliers(t, A, B, K)), np.abs(info.multipliers)
     )
+    # Belt-speed noise reaches the cost through the belt sensitivity: same start, more cost.
+    *_, noisy = design_controller(
+        standing, 8, dynamics=dyn, num_samples=41, tune_iterations=1, belt_noise=0.02
+    )
+    assert noisy.extra["tuning"]["initial_log_cost"] > tuning["initial_log_cost"] + 0.01
 
 
 def test_stance_substitution_recovers_the_body_motion_that_keeps_both_feet_put(dyn, standing):
@@ -166,6 +171,8 @@ def test_design_argument_errors(dyn, standing):
         design_controller(standing, 8, Q=np.eye(3), R=np.eye(2), dynamics=dyn)
     with pytest.raises(ValueError, match=r"feedback: expected distinct state indices in \[1, 18\)"):
         design_controller(standing, 8, dynamics=dyn, feedback=[0, 3])
+    with pytest.raises(ValueError, match=r"tune_horizon: expected an integer >= 1.*belt_noise"):
+        design_controller(standing, 8, dynamics=dyn, tune_horizon=0, belt_noise=-1.0)
     with pytest.raises(ValueError, match="num_points: expected an integer >= 2"):
         design_controller(standing, 1, dynamics=dyn)
     with pytest.raises(ValueError, match="num_samples: expected an integer >= 3"):

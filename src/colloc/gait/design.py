@@ -173,7 +173,8 @@ def design_controller(
     Raises
     ------
     ValueError
-        If ``num_points``, ``Q``, ``R``, ``structure`` or ``feedback`` is unusable.
+        If ``num_points``, ``Q``, ``R``, ``structure``, ``feedback``, ``tune_iterations``,
+        ``tune_horizon`` or ``belt_noise`` is unusable.
     """
     dyn = dynamics or GaitDynamics.build()
     gait = dyn.gait
@@ -203,6 +204,11 @@ def design_controller(
         problems.append(f"Q: expected shape ({NUM_STATES}, {NUM_STATES}), found {q.shape}")
     if r.shape != (6, 6):
         problems.append(f"R: expected shape (6, 6), found {r.shape}")
+    for name, value in (("tune_iterations", tune_iterations), ("tune_horizon", tune_horizon)):
+        if isinstance(value, bool) or not isinstance(value, int) or value < 1:
+            problems.append(f"{name}: expected an integer >= 1, found {value!r}")
+    if not (isinstance(belt_noise, int | float) and np.isfinite(belt_noise) and belt_noise >= 0):
+        problems.append(f"belt_noise: expected a finite number >= 0, found {belt_noise!r}")
     if problems:
         raise ValueError("design_controller: " + "; ".join(problems))
     times, A, B = cycle_linearization(dyn, cycle, num_samples)
