@@ -168,6 +168,12 @@ def build_parser() -> argparse.ArgumentParser:
     sim.add_argument(
         "--unperturbed", action="store_true", help="constant belt speed instead of the record"
     )
+    sim.add_argument(
+        "--perturbation-scale",
+        type=_number,
+        default=1.0,
+        help="factor on the record's speed deviations (default %(default)s)",
+    )
 
     r = sub.add_parser("runs", help="list, show, export or delete stored runs")
     r.add_argument("--db", default=DEFAULT_URL, help="results database URL (default %(default)s)")
@@ -298,6 +304,7 @@ def _gait(args: argparse.Namespace) -> int:
         structure=args.structure,
         feedback=args.feedback,
         perturbed=not args.unperturbed,
+        perturbation_scale=args.perturbation_scale,
     )
     if _report_problems("colloc gait simulate", settings.problems()):
         return 2

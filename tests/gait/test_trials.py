@@ -514,3 +514,19 @@ def test_joint_isolated_structure_needs_joint_feedback():
         "angle and rate), found feedback 'joints+trunk'"
     ]
     assert GaitSimulationSettings(structure="joint-isolated", feedback="joints").problems() == []
+
+
+def test_perturbation_scale_shrinks_the_deviations_and_is_validated():
+    from colloc.gait.settings import GaitSimulationSettings, belt_input
+
+    (_, full), _ = belt_input(GaitSimulationSettings(duration=300.0))
+    (_, half), described = belt_input(
+        GaitSimulationSettings(duration=300.0, perturbation_scale=0.5)
+    )
+    np.testing.assert_allclose(half - 1.2, 0.5 * (full - 1.2), atol=1e-12)
+    assert described["deviation_scale"] == 0.5
+    (_, flat), _ = belt_input(GaitSimulationSettings(duration=10.0, perturbation_scale=0.0))
+    np.testing.assert_allclose(flat, 1.2)
+    assert GaitSimulationSettings(perturbation_scale=-0.1).problems() == [
+        "perturbation_scale: expected a finite number >= 0, found -0.1"
+    ]

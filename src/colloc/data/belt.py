@@ -152,7 +152,12 @@ def belt_position(time: ArrayLike, velocity: ArrayLike, initial: float = 0.0) ->
 
 
 def perturbation_belt_speed(
-    path: str | os.PathLike[str], mean_speed: float, duration: float, sample_rate: float = 100.0
+    path: str | os.PathLike[str],
+    mean_speed: float,
+    duration: float,
+    sample_rate: float = 100.0,
+    *,
+    deviation_scale: float = 1.0,
 ) -> tuple[np.ndarray, np.ndarray]:
     """A measured belt-speed record moved to ``mean_speed`` and stretched to ``duration``.
 
@@ -169,6 +174,8 @@ def perturbation_belt_speed(
         [s], > 0.
     sample_rate : float
         [Hz] of the returned samples.
+    deviation_scale : float
+        Factor on the record's deviations from its mean (1: as measured).
 
     Returns
     -------
@@ -177,7 +184,7 @@ def perturbation_belt_speed(
     if not (np.isfinite(duration) and duration > 0):
         raise ValueError(f"duration: expected a positive number of seconds, found {duration!r}")
     t_rec, v_rec = read_belt_perturbation(path)
-    v_rec = rescale_belt_speed(v_rec, mean_speed)
+    v_rec = rescale_belt_speed(v_rec, mean_speed, deviation_scale=deviation_scale)
     times = np.arange(int(round(duration * sample_rate)) + 1) / sample_rate
     length = t_rec[-1] - t_rec[0]
     folded = np.mod(times, 2 * length)

@@ -54,6 +54,9 @@ class GaitSimulationSettings:
         The simulated subject [kg], [m].
     perturbed : bool
         Drive the belt with the measured perturbation record; False: constant ``speed``.
+    perturbation_scale : float
+        Factor on the record's deviations from its mean speed, >= 0 (1: as measured; e.g.
+        0.25 for a controller that cannot take the full perturbation).
     belt_record : Path or None
         The belt-speed record (:func:`colloc.data.belt.read_belt_perturbation` format),
         shifted to mean ``speed`` with its deviations kept and mirrored in time beyond its
@@ -83,6 +86,7 @@ class GaitSimulationSettings:
     body_mass: float = 75.0
     height: float = 1.80
     perturbed: bool = True
+    perturbation_scale: float = 1.0
     belt_record: Path | None = None
     motor_noise: float = 0.0
     structure: str = "full"
@@ -107,6 +111,11 @@ class GaitSimulationSettings:
         if not (_finite(self.motor_noise) and self.motor_noise >= 0):
             out.append(
                 f"motor_noise: expected a finite number >= 0 [N·m], found {self.motor_noise!r}"
+            )
+        if not (_finite(self.perturbation_scale) and self.perturbation_scale >= 0):
+            out.append(
+                "perturbation_scale: expected a finite number >= 0, found "
+                f"{self.perturbation_scale!r}"
             )
         if not isinstance(self.perturbed, bool):
             out.append(f"perturbed: expected True or False, found {self.perturbed!r}")
@@ -201,17 +210,22 @@ def belt_input(
         return None, {"source": "constant", "mean_speed": float(settings.speed)}
     path = settings.belt_path
     _, recorded = read_belt_perturbation(path)
+    scale = float(settings.perturbation_scale)
     samples = perturbation_belt_speed(
-        path, settings.speed, settings.duration, sample_rate=settings.sample_rate
+        path,
+        settings.speed,
+        settings.duration,
+        sample_rate=settings.sample_rate,
+        deviation_scale=scale,
     )
     description = {
         "source": os.fspath(path),
         "rescaling": (
-            "v = mean_speed + (v_record - mean(v_record)) (colloc.data.rescale_belt_speed, "
-            "deviation_scale 1), mirrored in time beyond the end of the record"
+            "v = mean_speed + deviation_scale (v_record - mean(v_record)) "
+            "(colloc.data.rescale_belt_speed), mirrored in time beyond the end of the record"
         ),
         "mean_speed": float(settings.speed),
-        "deviation_scale": 1.0,
+        "deviation_scale": scale,
         "record_mean_speed": float(np.mean(recorded)),
         "record_std_speed": float(np.std(recorded)),
     }
