@@ -169,8 +169,10 @@ def test_stance_substitution_recovers_the_body_motion_that_keeps_both_feet_put(d
 def test_design_argument_errors(dyn, standing):
     with pytest.raises(ValueError, match=r"Q: expected shape \(18, 18\).*R: expected shape"):
         design_controller(standing, 8, Q=np.eye(3), R=np.eye(2), dynamics=dyn)
-    with pytest.raises(ValueError, match=r"feedback: expected distinct state indices in \[1, 18\)"):
+    with pytest.raises(ValueError, match=r"feedback: expected distinct state indices in \[0, 18\)"):
         design_controller(standing, 8, dynamics=dyn, feedback=[0, 3])
+    with pytest.raises(ValueError, match=r"feedback: .*found \[3, 3\]"):
+        design_controller(standing, 8, dynamics=dyn, feedback=[3, 3])
     with pytest.raises(ValueError, match=r"tune_horizon: expected an integer >= 1.*belt_noise"):
         design_controller(standing, 8, dynamics=dyn, tune_horizon=0, belt_noise=-1.0)
     with pytest.raises(ValueError, match="num_points: expected an integer >= 2"):

@@ -51,8 +51,11 @@ from colloc.gait.stance import substitution_matrices
 
 #: Indices of ``s`` (joint angles ``qb..qg`` then joint rates ``ub..ug``) in ``x = [q, u]``.
 JOINT_STATES: np.ndarray = np.r_[3:9, 12:18]
-#: The states the LQR regulates: all but the hip's forward position ``qax`` (index 0).
+#: The states the LQR regulates: all but the hip's forward position ``qax`` (index 0),
+#: unless ``qax`` is fed back too.
 REGULATED: np.ndarray = np.arange(1, NUM_STATES)
+#: Every state, the hip's forward position on the treadmill included (as vision senses it).
+ALL_STATES: np.ndarray = np.arange(NUM_STATES)
 #: Named sets of fed-back states (indices into ``[q, u]``): the issue's joint angles and
 #: rates; those plus the trunk's orientation and rate (a vestibular sense); everything the
 #: LQR regulates.
@@ -65,9 +68,10 @@ FEEDBACK_SETS: dict[str, np.ndarray] = {
 TUNE_ITERATIONS = 150
 TUNE_HORIZON = 3
 
-#: Diagonal of ``Q`` over ``x = [q, u]`` (SI units); the ``qax`` entry is unused.
+#: Diagonal of ``Q`` over ``x = [q, u]`` (SI units); the ``qax`` entry (0.5 m on the
+#: treadmill) counts only when ``qax`` is fed back.
 DEFAULT_STATE_WEIGHTS: np.ndarray = np.r_[
-    0.0,
+    1 / 0.5**2,
     1 / 0.05**2,
     np.full(7, 1 / 0.05**2),
     1 / 0.5**2,
@@ -140,7 +144,8 @@ def design_controller(
     num_points : int
         ``P``, schedule points over the stride.
     Q : ndarray, shape (18, 18), optional
-        State weight (row/column of ``qax`` ignored); default ``diag(DEFAULT_STATE_WEIGHTS)``.
+        State weight (row/column of ``qax`` ignored unless ``qax`` is fed back); default
+        ``diag(DEFAULT_STATE_WEIGHTS)``.
     R : ndarray, shape (6, 6), optional
         Torque weight; default ``I / DEFAULT_TORQUE_SCALE^2``.
     structure : {"full", "joint-isolated"} or bool array (6, n_s)
@@ -151,8 +156,11 @@ def design_controller(
         Linearise at this many uniform samples of the stride instead of the cycle's nodes.
         Partial-state tuning needs them to resolve heel strike (about 1 ms).
     feedback : sequence of int
-        Indices (into the 18 states ``[q, u]``, not ``qax``) of the fed-back states ``s``;
-        default the six joint angles then the six joint rates (see :data:`FEEDBACK_SETS`).
+        Indices (into the 18 states ``[q, u]``) of the fed-back states ``s``; default the six
+        joint angles then the six joint rates (see :data:`FEEDBACK_SETS`). The hip's forward
+        position ``qax`` (index 0) only together with every other state
+        (:data:`ALL_STATES`): then the LQR regulates it too, holding the walker's place on
+        the treadmill; otherwise it is a neutral mode left out of the design.
     tune_iterations, tune_horizon : int
         Iterations and horizon (strides) of the partial-state tuning (step 3 of the module
         description); unused for full-state feedback.
@@ -182,13 +190,15 @@ def design_controller(
     if (
         fb.ndim != 1
         or fb.size == 0
-        or np.any((fb < 1) | (fb >= NUM_STATES))
+        or np.any((fb < 0) | (fb >= NUM_STATES))
         or np.unique(fb).size != fb.size
+        or (0 in fb and fb.size != NUM_STATES)
     ):
         raise ValueError(
-            f"feedback: expected distinct state indices in [1, {NUM_STATES}) (the hip's "
-            f"forward position, index 0, is neutral and not regulated), found {fb.tolist()}"
+            f"feedback: expected distinct state indices in [0, {NUM_STATES}), the hip's forward "
+            f"position (index 0) only with every other state, found {fb.tolist()}"
         )
+    regulated = ALL_STATES if 0 in fb else REGULATED
     states = gait.coordinates + gait.speeds
     controller = GainScheduled(
         num_points,
@@ -212,12 +222,12 @@ def design_controller(
     if problems:
         raise ValueError("design_controller: " + "; ".join(problems))
     times, A, B = cycle_linearization(dyn, cycle, num_samples)
-    reg = np.ix_(REGULATED, REGULATED)
-    res = sampled_periodic_lqr(A[:, REGULATED][:, :, REGULATED], B[:, REGULATED], times, q[reg], r)
+    reg = np.ix_(regulated, regulated)
+    res = sampled_periodic_lqr(A[:, regulated][:, :, regulated], B[:, regulated], times, q[reg], r)
     full = np.zeros((times.size, 6, NUM_STATES))
-    full[:, :, REGULATED] = res.K
+    full[:, :, regulated] = res.K
 
-    partial = not np.all(np.isin(REGULATED, fb))
+    partial = not np.all(np.isin(regulated, fb))
     folded = _folded_gains(dyn, cycle, times, full, fb) if partial else full[:, :, fb]
     P = controller.num_points
     phases = np.arange(P) / P
@@ -233,14 +243,14 @@ def design_controller(
         if belt_noise > 0:
             _, states_k, torques_k = cycle_samples(cycle, num_samples)
             sens = dyn.belt_sensitivity(states_k, torques_k, cycle.belt_speed)
-            disturbance = np.sqrt(belt_noise) * sens[:, REGULATED, None]
+            disturbance = np.sqrt(belt_noise) * sens[:, regulated, None]
         tuned = periodic_output_feedback(
-            A[:, REGULATED][:, :, REGULATED],
-            B[:, REGULATED],
+            A[:, regulated][:, :, regulated],
+            B[:, regulated],
             times,
             q[reg],
             r,
-            fb - 1,  # indices among the regulated states
+            np.searchsorted(regulated, fb),  # indices among the regulated states
             K,
             mask=controller.mask,
             horizon=tune_horizon,
@@ -315,20 +325,25 @@ def joint_feedback_multipliers(
     K: np.ndarray,
     feedback: Sequence[int] | np.ndarray = JOINT_STATES,
 ) -> np.ndarray:
-    """Floquet multipliers of ``x' = (A - B K(phi) E) x`` without the neutral ``qax`` mode.
+    """Floquet multipliers of ``x' = (A - B K(phi) E) x``.
+
+    Without the hip's forward position ``qax`` (a neutral mode, multiplier exactly 1) unless
+    ``feedback`` includes it.
 
     Parameters
     ----------
     times : ndarray, shape (N,)
         One stride; ``phi = (t - t_0) / (t_N - t_0)``.
     A, B : ndarray, shapes (N, 18, 18), (N, 18, 6)
-    K : ndarray, shape (P, 6, 12)
-        Joint gains at ``phi_p = p / P``, interpolated linearly and periodically like
-        :meth:`GainScheduled.interpolate`; ``E`` selects the joint states.
+    K : ndarray, shape (P, 6, n_s)
+        Gains at ``phi_p = p / P``, interpolated linearly and periodically like
+        :meth:`GainScheduled.interpolate`; ``E`` selects the ``feedback`` states.
+    feedback : sequence of int
+        Indices of the fed-back states in ``[q, u]``.
 
     Returns
     -------
-    ndarray, shape (17,)
+    ndarray, shape (17,) or (18,)
         Largest magnitude first.
     """
     P = K.shape[0]
@@ -340,13 +355,15 @@ def joint_feedback_multipliers(
     full[:, :, np.asarray(feedback, dtype=int)] = Kt
     acl = A - B @ full
     acl[-1] = acl[0]
-    mu = np.linalg.eigvals(discrete_monodromy(acl[:, REGULATED][:, :, REGULATED], times))
+    kept = ALL_STATES if 0 in np.asarray(feedback) else REGULATED
+    mu = np.linalg.eigvals(discrete_monodromy(acl[:, kept][:, :, kept], times))
     return mu[np.argsort(-np.abs(mu), kind="stable")]
 
 
 __all__ = [
     "DEFAULT_STATE_WEIGHTS",
     "DEFAULT_TORQUE_SCALE",
+    "ALL_STATES",
     "JOINT_STATES",
     "FEEDBACK_SETS",
     "DesignInfo",

@@ -17,9 +17,10 @@ The settled stride starts ``phi_0`` of a stride before a right heel strike, wher
 ``phi_0`` is the strike phase of the collocation cycle (see
 :func:`colloc.gait.strikes.strike_phase`), so that the new cycle's ``phi = 0`` sits at
 the same place in the gait as the old one's; its duration is the settled stride's.
-Nothing forces the hip's forward position ``qax`` to repeat (no force depends on it): it is
-reported relative to the start, and its drift per stride is in
-``stats["hip_drift_per_stride"]``.
+The hip's forward position ``qax`` is reported relative to the start. No force depends on
+it, so only a controller that feeds it back (``feedback`` including index 0) makes it repeat;
+its drift per stride is in ``stats["hip_drift_per_stride"]`` (measured on the test cycle:
+1.3 mm with it fed back, 8.5 mm without).
 """
 
 from __future__ import annotations
