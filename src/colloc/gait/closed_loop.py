@@ -44,6 +44,7 @@ from colloc.gait.strikes import (
     MIN_STRIDE_INTERVAL,
     strike_phase,
     threshold_crossing,
+    vertical_foot_forces,
 )
 
 logger = logging.getLogger(__name__)
@@ -94,8 +95,7 @@ class ClosedLoopRecord:
     @property
     def vertical_grf(self) -> np.ndarray:
         """Total vertical floor force on the right and left foot, shape (N, 2) [N]."""
-        fy = self.contact_forces[:, 1::2]
-        return np.column_stack([fy[:, 0] + fy[:, 1], fy[:, 2] + fy[:, 3]])
+        return vertical_foot_forces(self.contact_forces)
 
 
 def _schedule_window(P: int, chunk: int, h: float, nominal: float) -> int:

@@ -11,6 +11,24 @@ from typing import Any
 
 import numpy as np
 
+
+def vertical_foot_forces(contact_forces: np.ndarray) -> np.ndarray:
+    """Total vertical floor force on each foot (heel plus toe).
+
+    Parameters
+    ----------
+    contact_forces : ndarray, shape (N, 8)
+        ``Fx, Fy`` on the right heel, right toe, left heel, left toe [N].
+
+    Returns
+    -------
+    ndarray, shape (N, 2)
+        Right and left foot [N].
+    """
+    fy = np.asarray(contact_forces, dtype=float)[:, 1::2]
+    return np.column_stack([fy[:, 0] + fy[:, 1], fy[:, 2] + fy[:, 3]])
+
+
 #: A foot's vertical force [N] whose upward crossing is a heel strike. Well above the
 #: 20-50 N with which a swing foot of the collocation cycles grazes the belt, which a
 #: lower threshold took for a heel strike (resetting the phase mid-swing).
@@ -69,4 +87,10 @@ def threshold_crossing(
     return None
 
 
-__all__ = ["HEEL_STRIKE_THRESHOLD", "MIN_STRIDE_INTERVAL", "strike_phase", "threshold_crossing"]
+__all__ = [
+    "HEEL_STRIKE_THRESHOLD",
+    "MIN_STRIDE_INTERVAL",
+    "strike_phase",
+    "threshold_crossing",
+    "vertical_foot_forces",
+]

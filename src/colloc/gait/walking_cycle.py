@@ -16,6 +16,8 @@ from typing import Any
 import numpy as np
 from scipy.interpolate import CubicSpline
 
+from colloc.gait.strikes import vertical_foot_forces
+
 _ARRAYS = ("times", "states", "torques", "contact_forces", "belt_speed", "duration")
 _STATS_IN_FILE = (  # scalars and small lists; the IPOPT log and history stay in memory
     *("status", "success", "iterations", "objective", "constraint_violation", "build_time"),
@@ -59,8 +61,7 @@ class WalkingCycle:
     @property
     def vertical_grf(self) -> np.ndarray:
         """Total vertical floor force on the right and left foot, shape (N, 2) [N]."""
-        fy = self.contact_forces[:, 1::2]
-        return np.column_stack([fy[:, 0] + fy[:, 1], fy[:, 2] + fy[:, 3]])
+        return vertical_foot_forces(self.contact_forces)
 
     def state_at(self, phase: float | np.ndarray) -> np.ndarray:
         """States at a gait phase by periodic cubic interpolation.
