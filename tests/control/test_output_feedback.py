@@ -132,3 +132,27 @@ def test_bad_arguments_are_all_reported():
         "horizon:",
     ):
         assert part in text
+
+
+def test_multi_input_gain_layout_matches_the_lyapunov_cost():
+    """m = 2 inputs, 2 of 3 states fed back, distinct gains: the cost the tuner evaluates is
+    the continuous one, int_0^T tr(W e^{A t} X0 e^{A^T t}) dt, from a Lyapunov equation."""
+    import scipy.linalg
+
+    a = np.array([[0.0, 1.0, 0.0], [-2.0, -0.3, 1.0], [0.5, 0.0, -1.0]])
+    b = np.array([[0.0, 0.0], [1.0, 0.0], [0.0, 2.0]])
+    k = np.array([[1.5, -0.4], [0.3, 2.2]])  # rows: inputs; columns: states 0 and 2
+    feedback = [0, 2]
+    q, r = np.diag([1.0, 2.0, 3.0]), np.diag([0.5, 0.25])
+    x0 = np.diag([1.0, 0.5, 2.0])
+    t, A, B = constant(2001, a, b, period=2.0)
+    res = periodic_output_feedback(
+        A, B, t, q, r, feedback, np.repeat(k[None], 3, axis=0), X0=x0, horizon=1, max_iter=1
+    )
+    full = np.zeros((2, 3))
+    full[:, feedback] = k
+    acl = a - b @ full
+    w = q + full.T @ r @ full
+    end = scipy.linalg.expm(acl * 2.0)
+    y = scipy.linalg.solve_continuous_lyapunov(acl, end @ x0 @ end.T - x0)
+    assert res.initial_log_cost == pytest.approx(np.log(np.trace(w @ y)), abs=1e-5)
