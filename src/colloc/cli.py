@@ -158,6 +158,12 @@ def build_parser() -> argparse.ArgumentParser:
     sim.add_argument(
         "--points", type=_positive_int, default=200, help="schedule points P (default %(default)s)"
     )
+    sim.add_argument(
+        "--nodes",
+        type=_positive_int,
+        default=60,
+        help="collocation nodes of the walking cycle (default %(default)s; 100 at 1.4 m/s)",
+    )
     sim.add_argument("--structure", default="full", help="gain structure: full or joint-isolated")
     sim.add_argument(
         "--feedback",
@@ -301,6 +307,7 @@ def _gait(args: argparse.Namespace) -> int:
         seed=args.seed,
         out=args.out,
         num_points=args.points,
+        num_nodes=args.nodes,
         structure=args.structure,
         feedback=args.feedback,
         perturbed=not args.unperturbed,

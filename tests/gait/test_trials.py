@@ -292,11 +292,12 @@ def test_settings_report_every_bad_field_before_any_work(monkeypatch, tmp_path):
         duration=-1.0, speed=float("nan"), seed=-2, out=a_file, num_points=1,
         noise={"knee": 1.0}, sample_rate=0, cache=3, body_mass=0, height=-1.8,
         perturbed=True, belt_record=tmp_path / "missing.txt", motor_noise=-1.0,
-        structure="diagonal", animation_seconds=0, feedback="eyes",
+        structure="diagonal", animation_seconds=0, feedback="eyes", num_nodes=5,
     )  # fmt: skip
     expected = [
         "duration", "speed", "sample_rate", "body_mass", "height", "animation_seconds",
-        "motor_noise", "seed", "num_points", "noise: noise_std: unknown group 'knee'", "cache",
+        "motor_noise", "seed", "num_points", "num_nodes: expected an integer >= 20",
+        "noise: noise_std: unknown group 'knee'", "cache",
         "structure", "feedback: expected one of ['joints', 'joints+trunk', 'all']",
         "out: expected a directory, found an existing file", "belt_record",
     ]  # fmt: skip
@@ -382,6 +383,7 @@ def test_simulate_trial_writes_a_complete_output(monkeypatch, tmp_path):
     result = simulate_trial(settings, progress=lambda step, detail: steps.append(step))
     assert steps == ["cycle", "settle", "design", "simulate", "trial", "figures", "animation"]
     assert calls[0][0] == "cycle" and calls[0][2]["cache"] is False
+    assert calls[0][2]["num_nodes"] == 60
     # The settling controller feeds back every state but the hip's place; the trial's the
     # joints.
     designs = [c for c in calls if c[0] == "design"]
@@ -531,3 +533,24 @@ def test_perturbation_scale_shrinks_the_deviations_and_is_validated():
     assert GaitSimulationSettings(perturbation_scale=-0.1).problems() == [
         "perturbation_scale: expected a finite number >= 0, found -0.1"
     ]
+
+
+def test_a_cycle_that_does_not_settle_is_reported_with_a_hint(monkeypatch, tmp_path):
+    import colloc.gait.workflow as workflow
+    from colloc.gait.settings import GaitSimulationSettings
+    from colloc.gait.settle import CycleNotSettledError
+
+    calls: list = []
+    fake_pipeline(monkeypatch, calls)
+
+    def falls(*args, **kwargs):
+        raise CycleNotSettledError("settle_cycle: the closed loop did not walk 15 strides")
+
+    monkeypatch.setattr(workflow, "settle_cycle", falls)
+    out = tmp_path / "out"
+    settings = GaitSimulationSettings(duration=3.0, out=out, perturbed=False, num_nodes=70)
+    with pytest.raises(
+        CycleNotSettledError, match=r"did not walk 15 strides; the 70-node .*--nodes"
+    ):
+        workflow.simulate_trial(settings)
+    assert not out.exists()

@@ -17,6 +17,7 @@ from typing import Any
 import numpy as np
 
 from colloc.data.belt import perturbation_belt_speed, read_belt_perturbation
+from colloc.gait.cycle import DEFAULT_NUM_NODES, MIN_NUM_NODES
 from colloc.gait.design import FEEDBACK_SETS
 from colloc.gait.trials import resolve_noise_std
 
@@ -43,6 +44,11 @@ class GaitSimulationSettings:
         Output directory (created if missing).
     num_points : int
         ``P``: controller schedule points over the stride, >= 2.
+    num_nodes : int
+        Collocation nodes of the walking cycle, >= :data:`colloc.gait.cycle.MIN_NUM_NODES`
+        (measured: 60 settles at 1.0 and 1.2 m/s, and both walk the perturbed belt; at
+        1.4 m/s the 60-node cycle fell within a stride while being settled, the 100-node one
+        settled, but its trial fell on the perturbed belt after 2.7 s).
     noise : float or mapping
         Sensor noise: a multiple of :data:`colloc.gait.trials.DEFAULT_NOISE_STD` (0 for none)
         or group -> standard deviation (see :func:`colloc.gait.trials.resolve_noise_std`).
@@ -80,6 +86,7 @@ class GaitSimulationSettings:
     seed: int = 0
     out: Path = Path("gait-simulation")
     num_points: int = 200
+    num_nodes: int = DEFAULT_NUM_NODES
     noise: float | Mapping[str, float] = 1.0
     sample_rate: float = 100.0
     cache: bool | str | os.PathLike[str] = True
@@ -124,6 +131,9 @@ class GaitSimulationSettings:
         points = self.num_points
         if isinstance(points, bool) or not isinstance(points, int) or points < 2:
             out.append(f"num_points: expected an integer >= 2, found {points!r}")
+        nodes = self.num_nodes
+        if isinstance(nodes, bool) or not isinstance(nodes, int) or nodes < MIN_NUM_NODES:
+            out.append(f"num_nodes: expected an integer >= {MIN_NUM_NODES}, found {nodes!r}")
         try:
             resolve_noise_std(self.noise)
         except (TypeError, ValueError) as error:

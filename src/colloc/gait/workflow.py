@@ -57,7 +57,7 @@ from colloc.gait.settings import (
     GaitSimulationSettings,
     belt_input,
 )
-from colloc.gait.settle import settle_cycle
+from colloc.gait.settle import CycleNotSettledError, settle_cycle
 from colloc.gait.trials import record_to_trial
 from colloc.models.gait2d_params import load_parameters
 from colloc.plot.gait_animation import StickFigureGeometry
@@ -213,7 +213,9 @@ def simulate_trial(
     params = load_parameters(settings.body_mass, settings.height)
     belt, belt_description = belt_input(settings)
     with clock.step("cycle", f"periodic walking cycle at {settings.speed} m/s"):
-        cycle = find_walking_cycle(settings.speed, params=params, cache=settings.cache)
+        cycle = find_walking_cycle(
+            settings.speed, num_nodes=settings.num_nodes, params=params, cache=settings.cache
+        )
     dynamics = GaitDynamics.build(params)
     with clock.step("settle", "the stride the continuous model walks, full-state feedback"):
         # Every state but the hip's place on the treadmill. With it (Q weight 0.5 m) the
@@ -227,7 +229,13 @@ def simulate_trial(
             feedback=REGULATED,
         )
         check_stable(settle_info.spectral_radius, settings, "all")
-        cycle = settle_cycle(cycle, settle_tstar, settle_k, REGULATED, dynamics=dynamics)
+        try:
+            cycle = settle_cycle(cycle, settle_tstar, settle_k, REGULATED, dynamics=dynamics)
+        except CycleNotSettledError as error:
+            raise CycleNotSettledError(
+                f"{error}; the {settings.num_nodes}-node collocation cycle may be too coarse "
+                "for this speed: try more nodes (num_nodes, --nodes; 100 settles at 1.4 m/s)"
+            ) from error
     feedback = FEEDBACK_SETS[settings.feedback]
     with clock.step(
         "design", f"gain-scheduled controller on {settings.feedback!r}, P = {settings.num_points}"
