@@ -12,13 +12,13 @@ from __future__ import annotations
 import numpy as np
 import pytest
 import sympy as sm
+from nlp_derivatives import central_difference, dense_hessian, dense_jacobian
 from sympy.physics.mechanics import dynamicsymbols
 
 from colloc import IntegralCost, Model, Problem, TerminalCost, Tracking
 from colloc.transcription import BackwardEuler, HermiteSimpson, Midpoint, Trapezoidal
 
 SCHEMES = [BackwardEuler(), Midpoint(), Trapezoidal(), HermiteSimpson()]
-STEP = 1e-6
 
 
 def pendulum_problem(scheme, seed=0):
@@ -67,29 +67,6 @@ def pendulum_problem(scheme, seed=0):
         cache=False,
     )
     return problem
-
-
-def dense_jacobian(nlp, z):
-    rows, cols = nlp.jacobianstructure()
-    J = np.zeros((nlp.m, nlp.n))
-    np.add.at(J, (rows, cols), nlp.jacobian(z))
-    return J
-
-
-def dense_hessian(nlp, z, lam, obj_factor):
-    rows, cols = nlp.hessianstructure()
-    H = np.zeros((nlp.n, nlp.n))
-    np.add.at(H, (rows, cols), nlp.hessian(z, lam, obj_factor))
-    return H + np.tril(H, -1).T
-
-
-def central_difference(f, z, step=STEP):
-    cols = []
-    for i in range(z.size):
-        e = np.zeros_like(z)
-        e[i] = step
-        cols.append((np.asarray(f(z + e)) - np.asarray(f(z - e))) / (2 * step))
-    return np.array(cols).T
 
 
 def random_point(problem, rng):

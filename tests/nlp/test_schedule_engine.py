@@ -16,6 +16,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 import sympy as sm
+from nlp_derivatives import central_difference, dense_hessian, dense_jacobian
 from scipy.integrate import solve_ivp
 from sympy.physics.mechanics import dynamicsymbols
 
@@ -35,7 +36,6 @@ m1, m2, c, k1, k2, kc = sm.symbols("m1 m2 c k1 k2 kc")
 STATES = [q1, q2, u1, u2]
 PLANT = {m1: 1.0, m2: 1.4, c: 0.4, k1: 5.0, k2: 3.0, kc: 1.5}
 P = 5
-STEP = 1e-6
 
 
 def closed_toy(structure="full"):
@@ -308,27 +308,6 @@ def _embed(sched, row, cols):
 
 
 # ---------------------------------------------------------------------- derivatives
-def dense_jacobian(nlp, z):
-    rows, cols = nlp.jacobianstructure()
-    J = np.zeros((nlp.m, nlp.n))
-    np.add.at(J, (rows, cols), nlp.jacobian(z))
-    return J
-
-
-def dense_hessian(nlp, z, lam, obj_factor):
-    rows, cols = nlp.hessianstructure()
-    H = np.zeros((nlp.n, nlp.n))
-    np.add.at(H, (rows, cols), nlp.hessian(z, lam, obj_factor))
-    return H + np.tril(H, -1).T
-
-
-def central_difference(f, z, step=STEP):
-    cols = []
-    for i in range(z.size):
-        e = np.zeros_like(z)
-        e[i] = step
-        cols.append((np.asarray(f(z + e)) - np.asarray(f(z - e))) / (2 * step))
-    return np.array(cols).T
 
 
 def test_gradient_matches_finite_differences(case):
