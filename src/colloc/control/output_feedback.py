@@ -160,10 +160,9 @@ def periodic_output_feedback(
     keep = np.ones(k0.shape[1:], dtype=bool) if mask is None else np.asarray(mask, dtype=bool)
     if keep.shape != k0.shape[1:]:
         problems.append(f"mask: expected shape {k0.shape[1:]}, found {keep.shape}")
-    x0 = np.linalg.inv(q) if X0 is None and not problems else X0
     if problems:
         raise ValueError("periodic_output_feedback: " + "; ".join(problems))
-    x0 = np.asarray(x0, dtype=float)
+    x0 = np.linalg.inv(q) if X0 is None else np.asarray(X0, dtype=float)
     d = np.zeros((t.size, a.shape[1], 0)) if disturbance is None else np.asarray(disturbance)
     if d.ndim != 3 or d.shape[:2] != (t.size, a.shape[1]):
         raise ValueError(
@@ -172,8 +171,9 @@ def periodic_output_feedback(
         )
     cost = _cost_function(a, b, t, q, r, fb, k0.shape[0], horizon, x0, d.astype(float))
 
-    free = np.flatnonzero(np.broadcast_to(keep, k0.shape).ravel())
-    full = np.where(np.broadcast_to(keep, k0.shape), k0, 0.0).ravel()
+    kept = np.broadcast_to(keep, k0.shape)
+    free = np.flatnonzero(kept.ravel())
+    full = np.where(kept, k0, 0.0).ravel()
     count = [0]
 
     def objective(values: np.ndarray) -> tuple[float, np.ndarray]:

@@ -44,8 +44,8 @@ from colloc.gait.orbit import (
     NUM_COORDINATES,
     NUM_STATES,
     GaitDynamics,
-    cycle_linearization,
     cycle_samples,
+    periodic_linearization,
 )
 from colloc.gait.stance import substitution_matrices
 
@@ -221,14 +221,19 @@ def design_controller(
         problems.append(f"belt_noise: expected a finite number >= 0, found {belt_noise!r}")
     if problems:
         raise ValueError("design_controller: " + "; ".join(problems))
-    times, A, B = cycle_linearization(dyn, cycle, num_samples)
+    times, states_k, torques_k = cycle_samples(cycle, num_samples)
+    A, B = periodic_linearization(dyn, states_k, torques_k, cycle.belt_speed)
     reg = np.ix_(regulated, regulated)
     res = sampled_periodic_lqr(A[:, regulated][:, :, regulated], B[:, regulated], times, q[reg], r)
     full = np.zeros((times.size, 6, NUM_STATES))
     full[:, :, regulated] = res.K
 
     partial = not np.all(np.isin(regulated, fb))
-    folded = _folded_gains(dyn, cycle, times, full, fb) if partial else full[:, :, fb]
+    folded = (
+        _folded_gains(dyn, states_k, float(cycle.belt_speed), times, full, fb)
+        if partial
+        else full[:, :, fb]
+    )
     P = controller.num_points
     phases = np.arange(P) / P
     cphase = times / times[-1]
@@ -241,7 +246,6 @@ def design_controller(
         start = joint_feedback_multipliers(times, A, B, K, fb)
         disturbance = None
         if belt_noise > 0:
-            _, states_k, torques_k = cycle_samples(cycle, num_samples)
             sens = dyn.belt_sensitivity(states_k, torques_k, cycle.belt_speed)
             disturbance = np.sqrt(belt_noise) * sens[:, regulated, None]
         tuned = periodic_output_feedback(
@@ -289,7 +293,12 @@ def design_controller(
 
 
 def _folded_gains(
-    dyn: GaitDynamics, cycle: Any, times: np.ndarray, full: np.ndarray, fb: np.ndarray
+    dyn: GaitDynamics,
+    states: np.ndarray,
+    belt_speed: float,
+    times: np.ndarray,
+    full: np.ndarray,
+    fb: np.ndarray,
 ) -> np.ndarray:
     """Full-state gains folded onto the fed-back states through the stance constraint.
 
@@ -305,8 +314,7 @@ def _folded_gains(
         return full[:, :, fb]
     measured = np.sort(angles)
     unmeasured = np.setdiff1d(np.arange(NUM_COORDINATES), measured)
-    states = cycle.state_at(times / times[-1])
-    C = substitution_matrices(dyn, states, float(cycle.belt_speed), measured)
+    C = substitution_matrices(dyn, states, belt_speed, measured)
     Cdot = np.gradient(C, times, axis=0)
     kq_u, ku_u = full[:, :, unmeasured], full[:, :, NUM_COORDINATES + unmeasured]
     gain_q = full[:, :, measured] + kq_u @ C + ku_u @ Cdot

@@ -241,9 +241,30 @@ def cycle_linearization(
     B : ndarray, shape (N, 18, 6)
     """
     times, states, torques = cycle_samples(cycle, num_samples)
-    A, B = dynamics.linearize(states, torques, cycle.belt_speed)
+    return (times, *periodic_linearization(dynamics, states, torques, cycle.belt_speed))
+
+
+def periodic_linearization(
+    dynamics: GaitDynamics, states: np.ndarray, torques: np.ndarray, belt_speed: float
+) -> tuple[np.ndarray, np.ndarray]:
+    """``A, B`` at samples of one period whose last sample repeats the first.
+
+    Parameters
+    ----------
+    dynamics : GaitDynamics
+    states : ndarray, shape (N, 18)
+    torques : ndarray, shape (N, 6)
+    belt_speed : float
+
+    Returns
+    -------
+    A : ndarray, shape (N, 18, 18)
+    B : ndarray, shape (N, 18, 6)
+        With ``A[-1] = A[0]`` and ``B[-1] = B[0]`` exactly.
+    """
+    A, B = dynamics.linearize(states, torques, belt_speed)
     A[-1], B[-1] = A[0], B[0]
-    return times, A, B
+    return A, B
 
 
 def cycle_samples(

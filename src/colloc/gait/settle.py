@@ -124,9 +124,10 @@ def settle_cycle(
         )
     phi0 = strike_phase(cycle)
     spline = CubicSpline(record.times, record.states, axis=0)
+    # The last two complete strides, each from phi0 of a stride before its right heel strike.
     starts = strikes[-3:] - phi0 * float(cycle.duration)
     periods = np.diff(strikes[-3:])
-    first, second, third = spline(starts)
+    second, third = spline(starts[1:])
     residual = float(np.max(np.abs(third[1:] - second[1:])))
     change = float(abs(periods[1] - periods[0]))
     if residual > tol or change > tol:
