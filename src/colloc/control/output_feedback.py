@@ -229,25 +229,29 @@ def _cost_function(
     for i, j in enumerate(fb):
         select[i, j] = 1.0
 
-    # One interval: covariance S -> Phi S Phi^T and running cost.
-    S = ca.SX.sym("S", n, n)
+    # One interval: covariance S -> Phi S Phi^T (+ noise) and running cost, carried as
+    # [vec(S), accumulated cost].
+    carry = ca.SX.sym("carry", n * n + 1)
+    S = ca.reshape(carry[: n * n], n, n)
     z = ca.SX.sym("Z", n, n)
     y = ca.SX.sym("Y", n, m)
     k = ca.SX.sym("K", m, ns)
     hk = ca.SX.sym("h")
-    w = ca.SX.sym("W", n, n)
     gain = ca.solve(ca.DM.eye(m) + k @ (select @ y), k @ (select @ z))
     phi = 2.0 * (z - y @ gain) - ca.DM.eye(n)
     ke = k @ select
     weight = ca.DM(q) + ke.T @ ca.DM(r) @ ke
-    half = 0.5 * (ca.DM.eye(n) + phi)
-    S_next = phi @ S @ phi.T + half @ w @ half.T
+    S_next = phi @ S @ phi.T
+    inputs = [ca.vec(z), ca.vec(y), ca.vec(k), hk]
+    if d.shape[2]:  # no noise term (two more n^3 products per step) without a disturbance
+        w = ca.SX.sym("W", n, n)
+        half = 0.5 * (ca.DM.eye(n) + phi)
+        S_next += half @ w @ half.T
+        inputs.append(ca.vec(w))
     running = 0.5 * hk * (ca.trace(weight @ S) + ca.trace(weight @ S_next))  # trapezoidal
-    carry = ca.SX.sym("carry", n * n + 1)
-    Sc = ca.reshape(carry[: n * n], n, n)
-    inputs = ca.vertcat(ca.vec(z), ca.vec(y), ca.vec(k), hk, ca.vec(w))
-    nxt = ca.substitute(ca.vertcat(ca.vec(S_next), carry[-1] + running), S, Sc)
-    step = ca.Function("step", [carry, inputs], [nxt])
+    step = ca.Function(
+        "step", [carry, ca.vertcat(*inputs)], [ca.vertcat(ca.vec(S_next), carry[-1] + running)]
+    )
     period = step.mapaccum("period", num)
 
     kvec = ca.MX.sym("k", num_points * m * ns)
@@ -263,7 +267,7 @@ def _cost_function(
         ca.DM(_colmajor(Y)),
         gains,
         ca.DM(h).T,
-        ca.DM(_colmajor(noise)),
+        *([ca.DM(_colmajor(noise))] if d.shape[2] else []),
     )
     state: Any = ca.vertcat(ca.DM(x0.ravel(order="F")), 0.0)
     for _ in range(horizon):
