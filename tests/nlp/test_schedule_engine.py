@@ -632,3 +632,54 @@ def test_noisy_estimates_within_standard_errors(identification):
     assert 0.5 < np.sqrt(np.mean(z**2)) < 2.0
     # the noise level is estimated: sigma^2 per unit weight
     assert unc.noise_variance == pytest.approx(0.01**2, rel=0.15)
+
+
+# ---------------------------------------------------------------------- size
+def test_twenty_thousand_schedule_parameters_build_and_evaluate_exactly():
+    """A gait-sized schedule (P = 2000 points x 10 parameters) builds and is exact.
+
+    Before the build was made linear in the number of parameters (set membership instead of
+    tuple scans, a name -> index map in the layout) this size took minutes; now it is a
+    routine case. The defects at the true schedule are checked against the dense reference.
+    """
+    points = 2000
+    residual = [
+        q1.diff(t) - u1,
+        q2.diff(t) - u2,
+        m1 * u1.diff(t) + c * u1 + k1 * sm.sin(q1) + kc * (q1 - q2) - T1 - F1,
+        m2 * u2.diff(t) + c * u2 + k2 * q2 + kc * (q2 - q1) - T2 - F2,
+    ]
+    model = Model.from_equations(
+        residual, STATES, controlled_inputs=[T1, T2], known_inputs=[F1, F2]
+    )
+    gs = GainScheduled(points, STATES, [T1, T2])
+    closed = model.close_loop(gs)
+    assert len(gs.parameters) == 20_000
+    times = np.linspace(0.0, 40.0, 4001)
+    phase = times / 2.0  # 20 cycles: every schedule point is bracketed by some interval
+    rng = np.random.default_rng(3)
+    Tstar, K = rng.normal(size=(points, 2)), rng.normal(size=(points, 2, 4))
+    F = cubic_forces(times / 40.0)
+    problem = Problem(
+        closed,
+        times,
+        known_trajectories={gs.phase: phase, F1: F[:, 0], F2: F[:, 1]},
+        known_parameters=PLANT,
+        objective=Tracking({q1: np.sin(times)}),
+        cache=False,
+    )
+    assert problem.layout.num_variables == 4 * times.size + 20_000
+    assert "20000 (" in repr(problem)
+    x = np.column_stack([np.sin(times), np.cos(times), np.cos(times), -np.sin(times)])
+    values = gs.parameter_values(Tstar, K)
+    z = problem.initial_guess(dict(zip(STATES, x.T, strict=True)), values)
+    last = gs.parameters[-1]
+    assert z[problem.layout.variable_index(str(last))] == values[last]
+    # Midpoint defects against the dense NumPy residual at the interval midpoints.
+    h = np.diff(times)[:, None]
+    xm, xd = 0.5 * (x[1:] + x[:-1]), (x[1:] - x[:-1]) / h
+    tm = 0.5 * (times[1:] + times[:-1])
+    Fm = cubic_forces(tm / 40.0)  # the engine interpolates known inputs cubically
+    T = reference_torque(np.interp(tm, times, phase) % 1.0, xm, Tstar, K)
+    expected = reference_residual(xd, xm, T, Fm, PLANT[c])
+    np.testing.assert_allclose(problem.defects(z).reshape(-1, 4), expected, rtol=1e-9, atol=1e-9)

@@ -84,6 +84,10 @@ DESIGN_SAMPLES = 241
 #: Partial-state gains tuned on a coarser grid exploit its errors (tuned on 301 samples:
 #: Floquet radius 0.48 there, 1.14 on 2401 samples).
 SETTLED_DESIGN_SAMPLES = 1201
+#: Schedule points of the settling controller, independent of the trial's ``P``: settling
+#: only needs a controller that holds the stride, and a coarse one cannot (P = 20 and 50
+#: fell within 0.3-0.8 s while settling the default cycle; 200 settles it).
+SETTLE_POINTS = 200
 
 
 class UnstableControllerError(ValueError):
@@ -153,7 +157,10 @@ def motor_seed(seed: int) -> int:
 
 
 def check_stable(
-    spectral_radius: float, settings: GaitSimulationSettings, feedback: str | None = None
+    spectral_radius: float,
+    settings: GaitSimulationSettings,
+    feedback: str | None = None,
+    num_points: int | None = None,
 ) -> None:
     """Refuse a controller whose linearised closed loop is not stable.
 
@@ -166,6 +173,8 @@ def check_stable(
         Named in the message.
     feedback : str, optional
         The feedback set of the design checked; default ``settings.feedback``.
+    num_points : int, optional
+        The design's schedule points; default ``settings.num_points``.
 
     Raises
     ------
@@ -176,7 +185,7 @@ def check_stable(
         raise UnstableControllerError(
             f"controller: expected a stabilising design (Floquet spectral radius < 1), found "
             f"{spectral_radius:.4g} for structure {settings.structure!r} with P = "
-            f"{settings.num_points} schedule points and feedback "
+            f"{num_points or settings.num_points} schedule points and feedback "
             f"{feedback or settings.feedback!r}; the closed loop would fall, so nothing was "
             "simulated (try more schedule points, or feedback on more states)"
         )
@@ -223,12 +232,12 @@ def simulate_trial(
         # stronger weight the walker fell; without it the stride drifts 4.2 cm per stride.
         _, settle_tstar, settle_k, settle_info = design_controller(
             cycle,
-            settings.num_points,
+            SETTLE_POINTS,
             dynamics=dynamics,
             num_samples=DESIGN_SAMPLES,
             feedback=REGULATED,
         )
-        check_stable(settle_info.spectral_radius, settings, "all")
+        check_stable(settle_info.spectral_radius, settings, "all", SETTLE_POINTS)
         try:
             cycle = settle_cycle(cycle, settle_tstar, settle_k, REGULATED, dynamics=dynamics)
         except CycleNotSettledError as error:

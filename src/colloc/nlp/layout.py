@@ -9,6 +9,7 @@ from __future__ import annotations
 
 from collections.abc import Mapping
 from dataclasses import dataclass, field
+from functools import cached_property
 
 import numpy as np
 
@@ -127,14 +128,24 @@ class Layout:
         raise AssertionError("unreachable: row beyond the last block")
 
     # ---------------------------------------------------------------- meaning -> index
+    @cached_property
+    def _parameter_position(self) -> dict[str, int]:
+        # A dictionary, not list.index: a gain schedule has tens of thousands of parameters.
+        return {name: i for i, name in enumerate(self.parameter_names)}
+
     def variable_index(self, name: str, node: int | None = None) -> int:
         """Index of node variable ``name`` at ``node``, or of unknown parameter ``name``."""
         if node is None:
-            if name not in self.parameter_names:
-                raise KeyError(
-                    f"name: {name!r} is not an unknown parameter ({self.parameter_names})"
+            position = self._parameter_position.get(name)
+            if position is None:
+                shown = self.parameter_names[:20]
+                more = (
+                    ""
+                    if len(self.parameter_names) <= 20
+                    else f" and {len(self.parameter_names) - 20} more"
                 )
-            return self.parameter_offset + self.parameter_names.index(name)
+                raise KeyError(f"name: {name!r} is not an unknown parameter ({shown}{more})")
+            return self.parameter_offset + position
         if name not in self.node_names:
             raise KeyError(f"name: {name!r} is not a node variable ({self.node_names})")
         self._check_index(node, self.num_nodes, "node")

@@ -105,12 +105,13 @@ class Problem:
         )
         terms = check_objective(objective, problems)
         free_inputs = tuple(r for r in model.inputs if r not in self.known_trajectories)
+        unknown_set = set(unknown)
         self.partition = Partition(
             model,
             free_inputs,
             tuple(r for r in model.inputs if r in self.known_trajectories),
             unknown,
-            tuple(p for p in model.parameters if p not in unknown),
+            tuple(p for p in model.parameters if p not in unknown_set),
         )
         node_funcs = list(model.states) + list(free_inputs)
         self.bounds = check_bounds(bounds or {}, node_funcs + list(unknown), problems)
@@ -338,7 +339,9 @@ class Problem:
 
     def __repr__(self) -> str:
         lay = self.layout
+        names = lay.parameter_names
+        shown = repr(names) if len(names) <= 10 else f"{len(names)} ({names[0]} ... {names[-1]})"
         return (
             f"Problem({self.scheme!r}, N={lay.num_nodes}, variables={lay.num_variables}, "
-            f"constraints={lay.num_constraints}, unknown parameters={lay.parameter_names})"
+            f"constraints={lay.num_constraints}, unknown parameters={shown})"
         )

@@ -58,8 +58,10 @@ def check_parameters(
 ) -> tuple[dict[sm.Symbol, float], tuple[sm.Symbol, ...]]:
     """Known values and the unknown parameters; every model parameter must be one of them."""
     values: dict[sm.Symbol, float] = {}
+    # Sets, not the tuples: a gain schedule has tens of thousands of parameters.
+    parameters = set(model.parameters)
     for p, v in known.items():
-        if p not in model.parameters:
+        if p not in parameters:
             problems.append(
                 f"known_parameters: {name_of(p)} is not a parameter of the model "
                 f"(parameters: {[name_of(q) for q in model.parameters]})"
@@ -79,13 +81,14 @@ def check_parameters(
         free = tuple(p for p in model.parameters if p not in known)
     else:
         free = tuple(unknown)
-        stray = [name_of(p) for p in free if p not in model.parameters]
+        free_set = set(free)
+        stray = [name_of(p) for p in free if p not in parameters]
         if stray:
             problems.append(f"unknown_parameters: {stray} are not parameters of the model")
         both = [name_of(p) for p in free if p in known]
         if both:
             problems.append(f"unknown_parameters: {both} are also given in known_parameters")
-        neither = [name_of(p) for p in model.parameters if p not in known and p not in free]
+        neither = [name_of(p) for p in model.parameters if p not in known and p not in free_set]
         if neither:
             problems.append(
                 f"parameters {neither} are neither known nor unknown; give a value in "
@@ -121,8 +124,9 @@ def check_bounds(
 ) -> dict[sm.Basic, tuple[float, float]]:
     """Bounds on states, free inputs and unknown parameters."""
     out: dict[sm.Basic, tuple[float, float]] = {}
+    allowed_set = set(allowed)
     for s, pair in bounds.items():
-        if s not in allowed:
+        if s not in allowed_set:
             problems.append(
                 f"bounds: {name_of(s)} is not a free quantity (free: "
                 f"{[name_of(a) for a in allowed]})"

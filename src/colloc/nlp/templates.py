@@ -9,6 +9,7 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import dataclass
+from functools import cached_property
 
 import casadi as ca
 import sympy as sm
@@ -36,20 +37,22 @@ class Partition:
         """``n``."""
         return self.model.num_states
 
-    @property
+    @cached_property
     def scheduled(self) -> frozenset[sm.Symbol]:
         """Parameters that belong to a schedule (reached through slots, not directly)."""
         return frozenset(p for s in self.model.schedules for p in s.parameters)
 
-    @property
+    @cached_property
     def plain_unknown(self) -> tuple[sm.Symbol, ...]:
         """Unknown parameters outside schedules."""
-        return tuple(p for p in self.unknown_parameters if p not in self.scheduled)
+        scheduled = self.scheduled
+        return tuple(p for p in self.unknown_parameters if p not in scheduled)
 
-    @property
+    @cached_property
     def plain_known(self) -> tuple[sm.Symbol, ...]:
         """Known parameters outside schedules."""
-        return tuple(p for p in self.known_parameters if p not in self.scheduled)
+        scheduled = self.scheduled
+        return tuple(p for p in self.known_parameters if p not in scheduled)
 
     @property
     def schedule_is_unknown(self) -> tuple[bool, ...]:
