@@ -18,6 +18,7 @@ from colloc.data.columns import (
     SIDES,
     SIGNAL_COLUMNS,
     TORQUE_COLUMNS,
+    TRUNK_RATE_COLUMNS,
     normalize_unit,
 )
 from colloc.data.trial import Trial, detect_delimiter, read_trial
@@ -59,6 +60,9 @@ def trial_dir(tmp_path: Path, trial: Trial) -> Path:
 def test_read_gait_lab_tsv_matches_closed_form(trial: Trial) -> None:
     np.testing.assert_allclose(trial.time, np.arange(201) * 0.05, atol=1e-12)
     for name in SIGNAL_COLUMNS:
+        if name in TRUNK_RATE_COLUMNS:  # the fixture, like much gait-lab output, has none
+            assert name not in trial.signals.columns
+            continue
         np.testing.assert_allclose(
             trial.signals[name], expected_signal(name, trial.time), atol=5.1e-7, err_msg=name
         )
@@ -337,3 +341,20 @@ def test_content_problems_of_a_trial_in_memory(trial: Trial) -> None:
         "right_heel_strikes has 1 NaN/infinite times",
         "metadata must be a mapping, found list",
     ]
+
+
+def test_trunk_rate_columns_are_all_or_none(trial_dir: Path) -> None:
+    series = trial_module._find_series_file(trial_dir)
+    frame = pd.read_csv(series, sep=detect_delimiter(series))
+    frame["trunk_x_rate"] = 0.0
+    frame.to_csv(series, sep=detect_delimiter(series), index=False)
+    with pytest.raises(
+        TrialError,
+        match=r"missing columns \['trunk_y_rate', 'trunk_angle_rate'\] \(trunk rate columns "
+        r"are optional, but all 3 or none\)",
+    ):
+        read_trial(trial_dir)
+    frame["trunk_y_rate"] = 0.0
+    frame["trunk_angle_rate"] = 0.5
+    frame.to_csv(series, sep=detect_delimiter(series), index=False)
+    np.testing.assert_array_equal(read_trial(trial_dir).signals["trunk_angle_rate"], 0.5)

@@ -77,6 +77,10 @@ def test_true_signals_map_states_to_canonical_columns():
     np.testing.assert_array_equal(frame["trunk_x"], q[:, 0])
     np.testing.assert_array_equal(frame["trunk_y"], q[:, 1])
     np.testing.assert_array_equal(frame["trunk_angle"], q[:, 2])
+    # The trunk's velocity: uax, uay, ua (what a lab differentiates from the pelvis markers).
+    np.testing.assert_array_equal(frame["trunk_x_rate"], u[:, 0])
+    np.testing.assert_array_equal(frame["trunk_y_rate"], u[:, 1])
+    np.testing.assert_array_equal(frame["trunk_angle_rate"], u[:, 2])
     np.testing.assert_array_equal(frame["belt_speed"], record.belt_speed)
     np.testing.assert_array_equal(frame["belt_position"], record.belt_position)
     for i, name in enumerate(TORQUE_COLUMNS):
@@ -326,7 +330,7 @@ def test_an_unstable_design_is_refused_before_simulating(monkeypatch, tmp_path, 
     with pytest.raises(
         UnstableControllerError,
         match=r"expected a stabilising design \(Floquet spectral radius < 1\), found "
-        r"(1|314|nan) .*P = 7 schedule points.*nothing was simulated",
+        r"(1|314|nan) .*P = 200 schedule points.*nothing was simulated",
     ):
         simulate_trial(settings)
     assert [c[0] for c in calls] == ["cycle", "dynamics", "design"]
@@ -367,7 +371,12 @@ def test_simulate_trial_writes_a_complete_output(monkeypatch, tmp_path):
     import json
 
     from colloc.gait.walking_cycle import WalkingCycle
-    from colloc.gait.workflow import GaitSimulationSettings, motor_seed, simulate_trial
+    from colloc.gait.workflow import (
+        SETTLE_POINTS,
+        GaitSimulationSettings,
+        motor_seed,
+        simulate_trial,
+    )
 
     calls: list = []
     Tstar, K = fake_pipeline(monkeypatch, calls)
@@ -388,6 +397,8 @@ def test_simulate_trial_writes_a_complete_output(monkeypatch, tmp_path):
     # joints.
     designs = [c for c in calls if c[0] == "design"]
     assert designs[0][2]["feedback"].tolist() == list(range(1, 18))
+    # Settling always uses SETTLE_POINTS; only the trial's controller takes num_points.
+    assert designs[0][1] == SETTLE_POINTS and designs[1][1] == settings.num_points != SETTLE_POINTS
     assert next(c for c in calls if c[0] == "settle")[1] == list(range(1, 18))
     assert designs[1][2]["feedback"].tolist() == [*range(3, 9), *range(12, 18)]
     assert calls[0][2]["params"].body_mass == 70.0

@@ -13,6 +13,7 @@ from colloc.data.columns import (
     SIGNAL_COLUMNS,
     TIME_COLUMN,
     TORQUE_COLUMNS,
+    TRUNK_RATE_COLUMNS,
 )
 from colloc.data.events import detect_heel_strikes
 from colloc.data.phase import gait_phase, unwrapped_gait_phase
@@ -26,6 +27,7 @@ __all__ = [
     "SIGNAL_COLUMNS",
     "TIME_COLUMN",
     "TORQUE_COLUMNS",
+    "TRUNK_RATE_COLUMNS",
     "Trial",
     "TrialError",
     "WinterGaitCycle",

@@ -14,7 +14,7 @@ from colloc.data.columns import (
     COLUMN_UNITS,
     REQUIRED_COLUMNS,
     TIME_COLUMN,
-    TORQUE_COLUMNS,
+    OPTIONAL_GROUPS,
     normalize_unit,
 )
 
@@ -45,7 +45,7 @@ class TrialError(ValueError):
 
 
 def column_problems(columns: Sequence[str]) -> list[str]:
-    """Report missing required columns and incomplete torque columns.
+    """Report missing required columns and incomplete optional groups (all or none).
 
     Parameters
     ----------
@@ -60,15 +60,18 @@ def column_problems(columns: Sequence[str]) -> list[str]:
     present = set(columns)
     problems = []
     missing = [name for name in REQUIRED_COLUMNS if name not in present]
-    torques_present = [name for name in TORQUE_COLUMNS if name in present]
-    if torques_present:
-        missing += [name for name in TORQUE_COLUMNS if name not in present]
+    partial = []
+    for group, names in OPTIONAL_GROUPS.items():
+        if any(name in present for name in names):
+            absent = [name for name in names if name not in present]
+            missing += absent
+            if absent:
+                partial.append(f"{group} columns are optional, but all {len(names)} or none")
     if missing:
         unknown = [name for name in columns if name not in COLUMN_UNITS]
         hint = f"; columns present but not recognised: {unknown}" if unknown else ""
-        problems.append(
-            f"missing columns {missing} (torque columns are optional, but all 6 or none){hint}"
-        )
+        note = f" ({'; '.join(partial)})" if partial else ""
+        problems.append(f"missing columns {missing}{note}{hint}")
     return problems
 
 

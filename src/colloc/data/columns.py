@@ -15,6 +15,9 @@ column                        unit     meaning
 ``<side>_<joint>_rate``       rad/s    time derivative of the joint angle
 ``trunk_x``, ``trunk_y``      m        trunk (pelvis) reference point, x forward, y up
 ``trunk_angle``               rad      trunk orientation, counter-clockwise +
+``trunk_x_rate``,             m/s      trunk (pelvis) velocity, forward and up (optional,
+``trunk_y_rate``                       all three or none; a gait lab differentiates the
+``trunk_angle_rate``          rad/s    pelvis markers' trajectories as it does joint angles)
 ``belt_speed``                m/s      treadmill belt speed
 ``belt_position``             m        treadmill belt position (integral of belt speed)
 ``<side>_<joint>_torque``     N·m      joint torque (optional; absent in most real data)
@@ -50,6 +53,10 @@ TRUNK_COLUMNS: tuple[str, ...] = ("trunk_x", "trunk_y", "trunk_angle")
 BELT_COLUMNS: tuple[str, ...] = ("belt_speed", "belt_position")
 """Treadmill belt speed [m/s] and position [m]."""
 
+TRUNK_RATE_COLUMNS: tuple[str, ...] = ("trunk_x_rate", "trunk_y_rate", "trunk_angle_rate")
+"""Trunk velocity [m/s, m/s, rad/s], same order as :data:`TRUNK_COLUMNS`; optional in a trial.
+Without them an identification must differentiate the noisy trunk positions."""
+
 TORQUE_COLUMNS: tuple[str, ...] = tuple(
     f"{side}_{joint}_torque" for side in SIDES for joint in JOINTS
 )
@@ -60,7 +67,13 @@ REQUIRED_COLUMNS: tuple[str, ...] = (
 )
 """Signal columns every trial must have (the time column is kept apart)."""
 
-SIGNAL_COLUMNS: tuple[str, ...] = REQUIRED_COLUMNS + TORQUE_COLUMNS
+OPTIONAL_GROUPS: dict[str, tuple[str, ...]] = {
+    "trunk rate": TRUNK_RATE_COLUMNS,
+    "torque": TORQUE_COLUMNS,
+}
+"""Optional column groups: a trial has all columns of a group or none."""
+
+SIGNAL_COLUMNS: tuple[str, ...] = REQUIRED_COLUMNS + TRUNK_RATE_COLUMNS + TORQUE_COLUMNS
 """All canonical signal columns, in the order a trial file is written."""
 
 
@@ -69,6 +82,7 @@ def _units() -> dict[str, str]:
     units.update(dict.fromkeys(JOINT_ANGLE_COLUMNS, "rad"))
     units.update(dict.fromkeys(JOINT_RATE_COLUMNS, "rad/s"))
     units.update({"trunk_x": "m", "trunk_y": "m", "trunk_angle": "rad"})
+    units.update({"trunk_x_rate": "m/s", "trunk_y_rate": "m/s", "trunk_angle_rate": "rad/s"})
     units.update({"belt_speed": "m/s", "belt_position": "m"})
     units.update(dict.fromkeys(TORQUE_COLUMNS, "N·m"))
     return units

@@ -18,6 +18,7 @@ trial column                       source
 ``<side>_<joint>_rate``            ``ub .. ug`` (``u[3:9]``)
 ``trunk_x``, ``trunk_y``           hip position ``qax, qay``
 ``trunk_angle``                    ``qa``
+``trunk_x/y/angle_rate``           ``uax, uay, ua`` (``u[0:3]``)
 ``belt_speed``, ``belt_position``  the record's belt signals
 ``<side>_<joint>_torque``          ``Tb .. Tg``
 =================================  ========================================
@@ -42,6 +43,7 @@ from colloc.data.columns import (
     SIGNAL_COLUMNS,
     TORQUE_COLUMNS,
     TRUNK_COLUMNS,
+    TRUNK_RATE_COLUMNS,
 )
 from colloc.data.trial import Trial
 from colloc.store.ids import package_versions
@@ -56,6 +58,8 @@ DEFAULT_NOISE_STD: dict[str, float] = {
     "joint_rate": math.radians(0.25) * 2.0 * math.pi * RATE_BANDWIDTH_HZ,
     "trunk_position": 0.001,
     "trunk_angle": math.radians(0.25),
+    "trunk_velocity": 0.001 * 2.0 * math.pi * RATE_BANDWIDTH_HZ,
+    "trunk_angle_rate": math.radians(0.25) * 2.0 * math.pi * RATE_BANDWIDTH_HZ,
     "belt_speed": 0.005,
     "belt_position": 0.001,
     "joint_torque": 1.0,
@@ -67,6 +71,8 @@ NOISE_GROUPS: dict[str, tuple[str, ...]] = {
     "joint_rate": JOINT_RATE_COLUMNS,
     "trunk_position": TRUNK_COLUMNS[:2],
     "trunk_angle": TRUNK_COLUMNS[2:],
+    "trunk_velocity": TRUNK_RATE_COLUMNS[:2],
+    "trunk_angle_rate": TRUNK_RATE_COLUMNS[2:],
     "belt_speed": BELT_COLUMNS[:1],
     "belt_position": BELT_COLUMNS[1:],
     "joint_torque": TORQUE_COLUMNS,
@@ -193,9 +199,9 @@ def true_signals(record: WalkingRecord) -> tuple[np.ndarray, pd.DataFrame]:
         raise ValueError("cannot convert the walking record: " + "; ".join(problems))
     q, u = states[:, :_NUM_COORDINATES], states[:, _NUM_COORDINATES:]
     columns = np.column_stack([q[:, 3:], u[:, 3:], q[:, :3], belt["belt_speed"]])
-    columns = np.column_stack([columns, belt["belt_position"], torques])
+    columns = np.column_stack([columns, belt["belt_position"], u[:, :3], torques])
     names = JOINT_ANGLE_COLUMNS + JOINT_RATE_COLUMNS + TRUNK_COLUMNS + BELT_COLUMNS
-    frame = pd.DataFrame(columns, columns=list(names + TORQUE_COLUMNS))
+    frame = pd.DataFrame(columns, columns=list(names + TRUNK_RATE_COLUMNS + TORQUE_COLUMNS))
     return time, frame[list(SIGNAL_COLUMNS)]
 
 
