@@ -12,9 +12,9 @@ import pandas as pd
 
 from colloc.data.columns import (
     COLUMN_UNITS,
+    OPTIONAL_GROUPS,
     REQUIRED_COLUMNS,
     TIME_COLUMN,
-    OPTIONAL_GROUPS,
     normalize_unit,
 )
 
