@@ -515,8 +515,14 @@ def test_cli_runs_the_workflow_and_reports_strides(monkeypatch, capsys, tmp_path
     assert code == 0, printed
     designs = [c for c in calls if c[0] == "design"]
     assert designs[1][2]["feedback"].tolist() == [*range(2, 9), *range(11, 18)]
+    # Without --points the trial's controller has the settings' default P (20), the
+    # settling controller its own 200.
+    assert [d[1] for d in designs] == [200, 20]
     assert "strides: 5 right, 4 left; fell: False (walked the whole duration)" in printed
     assert (out / "summary.json").is_file()
+    calls.clear()
+    assert main(["gait", "simulate", "--duration", "6", "--points", "7", "--out", str(out)]) == 0
+    assert [c[1] for c in calls if c[0] == "design"] == [200, 7]
 
 
 def test_joint_isolated_structure_needs_joint_feedback():

@@ -24,6 +24,12 @@ from colloc.gait.trials import resolve_noise_std
 #: Environment variable naming the default belt-speed record.
 BELT_RECORD_ENV = "COLLOC_BELT_RECORD"
 
+#: Schedule points of the trial's controller by default: the smallest P measured to walk the
+#: whole 8-minute perturbation record (feedback "all", settled 1.2 m/s cycle: P = 20 walked
+#: 480 s, 408 strides; P = 10 fell after 0.95 s). An identification must estimate
+#: P x (6 + 6 x 17) = 2160 parameters for it, against 21 600 at the former P = 200.
+DEFAULT_NUM_POINTS = 20
+
 #: Gait-controller structures accepted by :attr:`GaitSimulationSettings.structure`.
 STRUCTURES: tuple[str, ...] = ("full", "joint-isolated")
 
@@ -43,7 +49,9 @@ class GaitSimulationSettings:
     out : Path
         Output directory (created if missing).
     num_points : int
-        ``P``: controller schedule points over the stride, >= 2.
+        ``P``: schedule points of the trial's controller over the stride, >= 2 (default
+        :data:`DEFAULT_NUM_POINTS`); the settling controller always has
+        :data:`colloc.gait.workflow.SETTLE_POINTS`.
     num_nodes : int
         Collocation nodes of the walking cycle, >= :data:`colloc.gait.cycle.MIN_NUM_NODES`
         (measured: 60 settles at 1.0 and 1.2 m/s, and both walk the perturbed belt; at
@@ -85,7 +93,7 @@ class GaitSimulationSettings:
     speed: float = 1.2
     seed: int = 0
     out: Path = Path("gait-simulation")
-    num_points: int = 200
+    num_points: int = DEFAULT_NUM_POINTS
     num_nodes: int = DEFAULT_NUM_NODES
     noise: float | Mapping[str, float] = 1.0
     sample_rate: float = 100.0
@@ -244,6 +252,7 @@ def belt_input(
 
 __all__ = [
     "BELT_RECORD_ENV",
+    "DEFAULT_NUM_POINTS",
     "STRUCTURES",
     "GaitSimulationSettings",
     "belt_input",
