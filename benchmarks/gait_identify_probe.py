@@ -1,0 +1,194 @@
+"""Probe the gait controller identification NLP: size, build, start, linear algebra, recovery.
+
+gait2d closed by ``GainScheduled`` with the trial's own feedback set and P, the trial's
+``controller_phase`` as the phase, all 18 states free, ``T*`` and ``K`` unknown, tracking the
+trunk pose and the six joint angles weighted by their noise (1 / sigma^2 / N). One fit window
+per run (each a fresh process, so the peak RSS is the case's own):
+
+    python benchmarks/gait_identify_probe.py --trial DIR --fit 5 --start truth+20% \
+        --max-iter 10 --pivot-order 4 --scheme midpoint
+
+Writes one JSON record per run, appended to ``benchmarks/results/gait_identify_probe.json``:
+variables, constraints, Jacobian/Hessian nonzeros, build seconds, the largest defect at the
+start, IPOPT iterations and status, seconds in the linear solver vs in function evaluations
+(IPOPT's own timing statistics), peak RSS, and the relative errors of ``K`` and ``T*`` against
+the trial's true controller.
+
+Starts: ``truth`` (true controller), ``truth+20%`` (each parameter times 1 + U(-0.2, 0.2),
+seeded), states from the measured columns (angles, positions and their rates as recorded).
+``--fixed-first`` solves the tracking problem with the start's controller held fixed (no
+unknown parameters: a banded KKT system) and starts the identification from its states.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import re
+import resource
+import time
+from pathlib import Path
+
+import numpy as np
+
+from colloc import GainScheduled, Problem, Tracking
+from colloc.data import read_trial
+from colloc.data.columns import (
+    JOINT_ANGLE_COLUMNS,
+    JOINT_RATE_COLUMNS,
+    TRUNK_COLUMNS,
+    TRUNK_RATE_COLUMNS,
+)
+from colloc.gait.metadata import STATE_SIGNAL_NAMES, controller_from_metadata
+from colloc.gait.orbit import GaitDynamics
+from colloc.models.gait2d_params import load_parameters
+from colloc.transcription import BackwardEuler, Midpoint
+
+RESULTS = Path(__file__).parent / "results" / "gait_identify_probe.json"
+SCHEMES = {"midpoint": Midpoint, "backward-euler": BackwardEuler}
+#: Trial columns of the state x = [q, u] of gait2d, in state order.
+STATE_COLUMNS = TRUNK_COLUMNS + JOINT_ANGLE_COLUMNS + TRUNK_RATE_COLUMNS + JOINT_RATE_COLUMNS
+TIMING = {
+    "linear_solver": r"PDSystemSolverTotal\.*:\s*([0-9.]+)",
+    "function_evaluations": r"Function Evaluations\.*:\s*([0-9.]+)",
+    "ipopt_total": r"OverallAlgorithm\.*:\s*([0-9.]+)",
+}
+
+
+def timing(log: str) -> dict[str, float | None]:
+    """CPU seconds per part from IPOPT's ``print_timing_statistics`` block."""
+    out: dict[str, float | None] = {}
+    for key, pattern in TIMING.items():
+        found = re.search(pattern, log)
+        out[key] = float(found.group(1)) if found else None
+    return out
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    parser.add_argument("--trial", type=Path, required=True, help="trial directory")
+    parser.add_argument("--start-time", type=float, default=10.0, help="window start [s]")
+    parser.add_argument("--fit", type=float, default=5.0, help="window length [s]")
+    parser.add_argument("--start", choices=["truth", "truth+20%"], default="truth+20%")
+    parser.add_argument("--fixed-first", action="store_true")
+    parser.add_argument("--scheme", choices=sorted(SCHEMES), default="midpoint")
+    parser.add_argument("--max-iter", type=int, default=10)
+    parser.add_argument("--pivot-order", type=int, default=None, help="mumps_pivot_order")
+    parser.add_argument("--seed", type=int, default=0)
+    parser.add_argument("--out", type=Path, default=RESULTS)
+    args = parser.parse_args()
+
+    trial = read_trial(args.trial)
+    Tstar, K, _ = controller_from_metadata(trial.metadata)
+    dyn = GaitDynamics.build(
+        load_parameters(trial.metadata.get("body_mass", 75.0), trial.metadata.get("height", 1.8))
+    )
+    gait, model = dyn.gait, dyn.model
+    names = trial.metadata["controller"]["feedback"]
+    feedback = [model.states[STATE_SIGNAL_NAMES.index(n)] for n in names]
+    gs = GainScheduled(Tstar.shape[0], feedback, gait.torques)
+    closed = model.close_loop(gs)
+    window = (trial.time >= args.start_time - 1e-9) & (
+        trial.time <= args.start_time + args.fit + 1e-9
+    )
+    t, signals = trial.time[window], trial.signals[window]
+    N = t.size
+    known = {
+        gait.belt_speed: signals["belt_speed"].to_numpy(),
+        gs.phase: signals["controller_phase"].to_numpy(),
+    }
+    std = trial.metadata["noise"]["std"]
+    coordinates = model.states[:9]
+    measured = {
+        q: signals[c].to_numpy() for q, c in zip(coordinates, STATE_COLUMNS[:9], strict=True)
+    }
+    sigma = [std["trunk_position"]] * 2 + [std["trunk_angle"]] + [std["joint_angle"]] * 6
+    weights = {q: 1.0 / s**2 / N for q, s in zip(coordinates, sigma, strict=True)}
+    objective = Tracking(measured, weights)
+    truth = gs.parameter_values(Tstar, K)
+    rng = np.random.default_rng(args.seed)
+    guess = (
+        truth
+        if args.start == "truth"
+        else {p: v * (1 + rng.uniform(-0.2, 0.2)) for p, v in truth.items()}
+    )
+    states = {x: signals[c].to_numpy() for x, c in zip(model.states, STATE_COLUMNS, strict=True)}
+    scheme = SCHEMES[args.scheme]()
+    options = {"max_iter": args.max_iter, "print_timing_statistics": "yes", "tol": 1e-6}
+    if args.pivot_order is not None:
+        options["mumps_pivot_order"] = args.pivot_order
+    record: dict = {
+        "trial": str(args.trial),
+        "fit_seconds": args.fit,
+        "N": N,
+        "P": int(Tstar.shape[0]),
+        "feedback": names,
+        "scheme": args.scheme,
+        "start": args.start,
+        "fixed_first": args.fixed_first,
+        "ipopt_options": options,
+    }
+    if args.fixed_first:
+        t0 = time.perf_counter()
+        fixed = Problem(
+            closed,
+            t,
+            scheme=scheme,
+            known_trajectories=known,
+            known_parameters={**dyn.constants, **guess},
+            objective=objective,
+        )
+        z = fixed.initial_guess(states)
+        record["fixed_start_max_defect"] = float(np.abs(fixed.defects(z)).max())
+        solved = fixed.solve(z, **{**options, "max_iter": 500})
+        record["fixed"] = {
+            "seconds": time.perf_counter() - t0,
+            "iterations": solved.stats["iterations"],
+            "status": solved.stats["status"],
+            **timing(solved.stats["ipopt_log"]),
+        }
+        states = {x: solved.trajectories[x] for x in model.states}
+    t0 = time.perf_counter()
+    problem = Problem(
+        closed,
+        t,
+        scheme=scheme,
+        known_trajectories=known,
+        known_parameters=dyn.constants,
+        objective=objective,
+    )
+    record["build_seconds"] = time.perf_counter() - t0
+    z0 = problem.initial_guess(states, guess)
+    record.update(
+        variables=problem.layout.num_variables,
+        constraints=problem.layout.num_constraints,
+        parameters=len(gs.parameters),
+        nnz_jacobian=int(problem.nlp.nnz_jacobian),
+        nnz_hessian=int(problem.nlp.nnz_hessian),
+        start_max_defect=float(np.abs(problem.defects(z0)).max()),
+    )
+    t0 = time.perf_counter()
+    solution = problem.solve(z0, **options)
+    record["solve_seconds"] = time.perf_counter() - t0
+    record.update(
+        iterations=solution.stats["iterations"],
+        status=solution.stats["status"],
+        constraint_violation=solution.stats["constraint_violation"],
+        **timing(solution.stats["ipopt_log"]),
+    )
+    iterations = max(solution.stats["iterations"], 1)
+    record["seconds_per_iteration"] = record["solve_seconds"] / iterations
+    record["peak_rss_mb"] = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
+    Ts, Ks = gs.arrays({p: solution.parameters[p] for p in gs.parameters})
+    T0, K0 = gs.arrays(guess)
+    record["K_relative_error"] = float(np.linalg.norm(Ks - K) / np.linalg.norm(K))
+    record["Tstar_relative_error"] = float(np.linalg.norm(Ts - Tstar) / np.linalg.norm(Tstar))
+    record["start_K_relative_error"] = float(np.linalg.norm(K0 - K) / np.linalg.norm(K))
+    print(json.dumps(record, indent=1))
+    args.out.parent.mkdir(parents=True, exist_ok=True)
+    previous = json.loads(args.out.read_text()) if args.out.is_file() else []
+    args.out.write_text(json.dumps([*previous, record], indent=1) + "\n")
+
+
+if __name__ == "__main__":
+    main()
