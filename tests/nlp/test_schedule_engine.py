@@ -38,7 +38,7 @@ PLANT = {m1: 1.0, m2: 1.4, c: 0.4, k1: 5.0, k2: 3.0, kc: 1.5}
 P = 5
 
 
-def closed_toy(structure="full"):
+def closed_toy(structure="full", points=P):
     residual = [
         q1.diff(t) - u1,
         q2.diff(t) - u2,
@@ -48,7 +48,7 @@ def closed_toy(structure="full"):
     model = Model.from_equations(
         residual, STATES, controlled_inputs=[T1, T2], known_inputs=[F1, F2]
     )
-    gs = GainScheduled(P, STATES, [T1, T2], structure=structure)
+    gs = GainScheduled(points, STATES, [T1, T2], structure=structure)
     return model.close_loop(gs), gs
 
 
@@ -643,17 +643,7 @@ def test_twenty_thousand_schedule_parameters_build_and_evaluate_exactly():
     routine case. The defects at the true schedule are checked against the dense reference.
     """
     points = 2000
-    residual = [
-        q1.diff(t) - u1,
-        q2.diff(t) - u2,
-        m1 * u1.diff(t) + c * u1 + k1 * sm.sin(q1) + kc * (q1 - q2) - T1 - F1,
-        m2 * u2.diff(t) + c * u2 + k2 * q2 + kc * (q2 - q1) - T2 - F2,
-    ]
-    model = Model.from_equations(
-        residual, STATES, controlled_inputs=[T1, T2], known_inputs=[F1, F2]
-    )
-    gs = GainScheduled(points, STATES, [T1, T2])
-    closed = model.close_loop(gs)
+    closed, gs = closed_toy(points=points)
     assert len(gs.parameters) == 20_000
     times = np.linspace(0.0, 40.0, 4001)
     phase = times / 2.0  # 20 cycles: every schedule point is bracketed by some interval
