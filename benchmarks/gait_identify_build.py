@@ -13,11 +13,11 @@ variables, nonzeros, derive / build / guess seconds.
 from __future__ import annotations
 
 import argparse
-import json
 import time
 from pathlib import Path
 
 import numpy as np
+from results_file import append_record
 
 from colloc import GainScheduled, Problem, Tracking
 from colloc.gait.design import FEEDBACK_SETS
@@ -61,10 +61,7 @@ def main() -> None:
         "build_seconds": built - start,
         "guess_seconds": time.perf_counter() - built,
     }
-    print(json.dumps(record, indent=1))
-    args.out.parent.mkdir(parents=True, exist_ok=True)
-    previous = json.loads(args.out.read_text()) if args.out.is_file() else []
-    args.out.write_text(json.dumps([*previous, record], indent=1) + "\n")
+    append_record(args.out, record)
 
 
 if __name__ == "__main__":

@@ -23,13 +23,13 @@ unknown parameters: a banded KKT system) and starts the identification from its 
 from __future__ import annotations
 
 import argparse
-import json
 import re
 import resource
 import time
 from pathlib import Path
 
 import numpy as np
+from results_file import append_record
 
 from colloc import GainScheduled, Problem, Tracking
 from colloc.data import read_trial
@@ -184,10 +184,7 @@ def main() -> None:
     record["K_relative_error"] = float(np.linalg.norm(Ks - K) / np.linalg.norm(K))
     record["Tstar_relative_error"] = float(np.linalg.norm(Ts - Tstar) / np.linalg.norm(Tstar))
     record["start_K_relative_error"] = float(np.linalg.norm(K0 - K) / np.linalg.norm(K))
-    print(json.dumps(record, indent=1))
-    args.out.parent.mkdir(parents=True, exist_ok=True)
-    previous = json.loads(args.out.read_text()) if args.out.is_file() else []
-    args.out.write_text(json.dumps([*previous, record], indent=1) + "\n")
+    append_record(args.out, record)
 
 
 if __name__ == "__main__":
