@@ -321,6 +321,75 @@ class Model:
             schedules=self.schedules + schedules,
         )
 
+    def with_disturbances(self, disturbances: Mapping[int, sm.Basic]) -> Model:
+        """Add an unknown disturbance trajectory to chosen equations (process noise).
+
+        Equation ``i`` becomes ``F_i(x', x, r, p, t) - w_i(t) = 0``. For the dynamic rows
+        of :meth:`from_kane` / :meth:`from_lagrange` (``M u' - f = 0``) ``w_i`` is thus a
+        generalized force added to ``f`` on that coordinate: a motor-noise torque on an
+        actuated joint, a residual force on an unactuated one. The ``w_i`` join
+        :attr:`unknown_inputs`, so a :class:`colloc.Problem` estimates them at every node;
+        penalise them in the objective by their assumed variance (e.g. an
+        :class:`colloc.IntegralCost` of ``w_i**2 / sigma_i**2``). With every dynamic row
+        disturbed, any state trajectory satisfies the dynamics for ``w = F``: a start
+        consistent with the equations by construction.
+
+        Parameters
+        ----------
+        disturbances : mapping
+            Equation (row of :attr:`residual`, from 0) -> a new function of time, e.g.
+            ``dynamicsymbols("w_hip")``.
+
+        Returns
+        -------
+        Model
+
+        Raises
+        ------
+        ModelError
+            Listing every row out of range and every symbol that is not a new function of
+            time or is given twice.
+        """
+        problems = []
+        if not isinstance(disturbances, Mapping) or not disturbances:
+            raise_if_any(
+                [
+                    "disturbances: expected a non-empty mapping equation row -> function of "
+                    f"time, found {disturbances!r}"
+                ]
+            )
+        used = set(self.states) | set(self.inputs)
+        seen: set[sm.Basic] = set()
+        for row, w in disturbances.items():
+            if (
+                isinstance(row, bool)
+                or not isinstance(row, int)
+                or not 0 <= row < self.num_equations
+            ):
+                problems.append(
+                    f"disturbances: row {row!r} is not an equation of the model "
+                    f"(rows 0 to {self.num_equations - 1})"
+                )
+            if not (isinstance(w, sm.Function) and w.args == (self.t,)):
+                problems.append(
+                    f"disturbances: {w!r} for row {row!r} is not a function of {self.t} "
+                    "(make one with sympy.physics.mechanics.dynamicsymbols)"
+                )
+            elif w in used:
+                problems.append(f"disturbances: {name_of(w)} is already a state or input")
+            elif w in seen:
+                problems.append(f"disturbances: {name_of(w)} is given for two rows")
+            seen.add(w)
+        raise_if_any(problems)
+        residual = sm.Matrix(self.residual)
+        for row, w in disturbances.items():
+            residual[row] = residual[row] - w
+        return replace(
+            self,
+            residual=residual,
+            unknown_inputs=self.unknown_inputs + tuple(disturbances.values()),
+        )
+
     def with_outputs(self, outputs: Mapping[sm.Basic, sm.Expr] | Sequence[sm.Basic]) -> Model:
         """Return a copy with other measured outputs (validated like the constructors)."""
         out = dict(outputs) if isinstance(outputs, Mapping) else {y: y for y in as_tuple(outputs)}
