@@ -18,6 +18,13 @@ Starts: ``truth`` (true controller), ``truth+20%`` (each parameter times 1 + U(-
 seeded), states from the measured columns (angles, positions and their rates as recorded).
 ``--fixed-first`` solves the tracking problem with the start's controller held fixed (no
 unknown parameters: a banded KKT system) and starts the identification from its states.
+``--residual-forces SIGMA_JOINT,SIGMA_ROOT`` adds a disturbance generalized force to each of
+the nine dynamic equations of that fixed-controller solve (``Model.with_disturbances``: motor
+noise on the six joints, residual forces on the trunk's x, y, angle), penalised by
+``1 / sigma^2`` per unit time, and starts it with the disturbances equal to the residual, so
+that the start satisfies every dynamic defect (exactly with backward Euler, whose residual is
+evaluated at the nodes). ``--friction-velocity`` overrides the contact's ``v_s`` (a softer
+friction law) in every solve.
 """
 
 from __future__ import annotations
@@ -30,8 +37,9 @@ from pathlib import Path
 
 import numpy as np
 from results_file import append_record
+from sympy.physics.mechanics import dynamicsymbols
 
-from colloc import GainScheduled, Problem, Tracking
+from colloc import GainScheduled, IntegralCost, Problem, Tracking
 from colloc.data import read_trial
 from colloc.data.columns import (
     JOINT_ANGLE_COLUMNS,
@@ -41,6 +49,8 @@ from colloc.data.columns import (
 )
 from colloc.gait.metadata import STATE_SIGNAL_NAMES, controller_from_metadata
 from colloc.gait.orbit import GaitDynamics
+from colloc.gait.trials import DEFAULT_NOISE_STD
+from colloc.model.symbols import name_of
 from colloc.models.gait2d_params import load_parameters
 from colloc.transcription import BackwardEuler, Midpoint
 
@@ -52,7 +62,20 @@ TIMING = {
     "linear_solver": r"PDSystemSolverTotal\.*:\s*([0-9.]+)",
     "function_evaluations": r"Function Evaluations\.*:\s*([0-9.]+)",
     "ipopt_total": r"OverallAlgorithm\.*:\s*([0-9.]+)",
+    "factorization": r"LinearSystemFactorization\.*:\s*([0-9.]+)",
+    "symbolic_factorization": r"LinearSystemSymbolicFactorization\.*:\s*([0-9.]+)",
+    "back_solve": r"LinearSystemBackSolve\.*:\s*([0-9.]+)",
 }
+
+
+def option_value(text: str) -> int | float | str:
+    """An IPOPT option's value from the command line: int, else float, else the string."""
+    for kind in (int, float):
+        try:
+            return kind(text)
+        except ValueError:
+            pass
+    return text
 
 
 def timing(log: str) -> dict[str, float | None]:
@@ -75,6 +98,12 @@ def main() -> None:
     parser.add_argument("--max-iter", type=int, default=10)
     parser.add_argument("--pivot-order", type=int, default=None, help="mumps_pivot_order")
     parser.add_argument("--seed", type=int, default=0)
+    parser.add_argument(
+        "--option", action="append", default=[], metavar="KEY=VALUE", help="IPOPT option"
+    )
+    parser.add_argument("--residual-forces", default=None, metavar="SIGMA_JOINT,SIGMA_ROOT")
+    parser.add_argument("--friction-velocity", type=float, default=None, help="v_s [m/s]")
+    parser.add_argument("--log", type=Path, default=None, help="keep IPOPT's log here")
     parser.add_argument("--out", type=Path, default=RESULTS)
     args = parser.parse_args()
 
@@ -84,6 +113,9 @@ def main() -> None:
         load_parameters(trial.metadata.get("body_mass", 75.0), trial.metadata.get("height", 1.8))
     )
     gait, model = dyn.gait, dyn.model
+    constants = dict(dyn.constants)
+    if args.friction_velocity is not None:
+        constants[next(c for c in constants if str(c) == "v_s")] = args.friction_velocity
     names = trial.metadata["controller"]["feedback"]
     feedback = [model.states[STATE_SIGNAL_NAMES.index(n)] for n in names]
     gs = GainScheduled(Tstar.shape[0], feedback, gait.torques)
@@ -103,6 +135,10 @@ def main() -> None:
         q: signals[c].to_numpy() for q, c in zip(coordinates, STATE_COLUMNS[:9], strict=True)
     }
     sigma = [std["trunk_position"]] * 2 + [std["trunk_angle"]] + [std["joint_angle"]] * 6
+    # a noise-free trial is weighted as if it had the default sensor noise
+    floor = [DEFAULT_NOISE_STD[g] for g in ("trunk_position",) * 2 + ("trunk_angle",)]
+    floor += [DEFAULT_NOISE_STD["joint_angle"]] * 6
+    sigma = [s if s > 0 else f for s, f in zip(sigma, floor, strict=True)]
     weights = {q: 1.0 / s**2 / N for q, s in zip(coordinates, sigma, strict=True)}
     objective = Tracking(measured, weights)
     truth = gs.parameter_values(Tstar, K)
@@ -117,6 +153,9 @@ def main() -> None:
     options = {"max_iter": args.max_iter, "print_timing_statistics": "yes", "tol": 1e-6}
     if args.pivot_order is not None:
         options["mumps_pivot_order"] = args.pivot_order
+    for item in args.option:
+        key, _, value = item.partition("=")
+        options[key] = option_value(value)
     record: dict = {
         "trial": str(args.trial),
         "fit_seconds": args.fit,
@@ -130,21 +169,37 @@ def main() -> None:
     }
     if args.fixed_first:
         t0 = time.perf_counter()
+        fixed_model, fixed_objective, residual_forces = closed, [objective], {}
+        if args.residual_forces:
+            sigma_joint, sigma_root = (float(v) for v in args.residual_forces.split(","))
+            residual_forces = {
+                9 + i: dynamicsymbols(f"residual_{name_of(q)}") for i, q in enumerate(coordinates)
+            }
+            fixed_model = closed.with_disturbances(residual_forces)
+            level = [sigma_root] * 3 + [sigma_joint] * 6
+            penalty = sum(w**2 / s**2 for w, s in zip(residual_forces.values(), level, strict=True))
+            fixed_objective.append(IntegralCost(penalty / (t[-1] - t[0])))
+            record["residual_forces"] = {"sigma_joint": sigma_joint, "sigma_root": sigma_root}
         fixed = Problem(
-            closed,
+            fixed_model,
             t,
             scheme=scheme,
             known_trajectories=known,
-            known_parameters={**dyn.constants, **guess},
-            objective=objective,
+            known_parameters={**constants, **guess},
+            objective=fixed_objective,
         )
         z = fixed.initial_guess(states)
+        if residual_forces:
+            rows = fixed.defects(z).reshape(N - 1, -1)
+            start_forces = {w: np.r_[0.0, rows[:, r]] for r, w in residual_forces.items()}
+            z = fixed.initial_guess({**states, **start_forces})
         record["fixed_start_max_defect"] = float(np.abs(fixed.defects(z)).max())
         solved = fixed.solve(z, **{**options, "max_iter": 500})
         record["fixed"] = {
             "seconds": time.perf_counter() - t0,
             "iterations": solved.stats["iterations"],
             "status": solved.stats["status"],
+            "constraint_violation": solved.stats["constraint_violation"],
             **timing(solved.stats["ipopt_log"]),
         }
         states = {x: solved.trajectories[x] for x in model.states}
@@ -154,7 +209,7 @@ def main() -> None:
         t,
         scheme=scheme,
         known_trajectories=known,
-        known_parameters=dyn.constants,
+        known_parameters=constants,
         objective=objective,
     )
     record["build_seconds"] = time.perf_counter() - t0
@@ -168,7 +223,7 @@ def main() -> None:
         start_max_defect=float(np.abs(problem.defects(z0)).max()),
     )
     t0 = time.perf_counter()
-    solution = problem.solve(z0, **options)
+    solution = problem.solve(z0, log_path=str(args.log) if args.log else None, **options)
     record["solve_seconds"] = time.perf_counter() - t0
     record.update(
         iterations=solution.stats["iterations"],
