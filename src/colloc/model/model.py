@@ -16,7 +16,7 @@ import sympy as sm
 
 from colloc.model.errors import raise_if_any
 from colloc.model.schedule import ParameterSchedule
-from colloc.model.symbols import TIME, as_tuple, name_of, sort_by_name
+from colloc.model.symbols import TIME, as_tuple, is_function_of_time, name_of, sort_by_name
 from colloc.model.validation import output_problems, validate_model
 
 if TYPE_CHECKING:
@@ -370,7 +370,7 @@ class Model:
                     f"disturbances: row {row!r} is not an equation of the model "
                     f"(rows 0 to {self.num_equations - 1})"
                 )
-            if not (isinstance(w, sm.Function) and w.args == (self.t,)):
+            if not is_function_of_time(w, self.t):
                 problems.append(
                     f"disturbances: {w!r} for row {row!r} is not a function of {self.t} "
                     "(make one with sympy.physics.mechanics.dynamicsymbols)"
