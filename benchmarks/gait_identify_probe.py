@@ -39,7 +39,7 @@ import numpy as np
 from results_file import append_record
 from sympy.physics.mechanics import dynamicsymbols
 
-from colloc import GainScheduled, IntegralCost, Problem, Tracking
+from colloc import GainScheduled, GaussNewtonOptions, IntegralCost, Problem, Tracking
 from colloc.data import read_trial
 from colloc.data.columns import (
     JOINT_ANGLE_COLUMNS,
@@ -52,6 +52,7 @@ from colloc.gait.orbit import GaitDynamics
 from colloc.gait.trials import DEFAULT_NOISE_STD
 from colloc.model.symbols import name_of
 from colloc.models.gait2d_params import load_parameters
+from colloc.solve.ipopt import HESSIAN_CHOICES
 from colloc.transcription import BackwardEuler, Midpoint
 
 RESULTS = Path(__file__).parent / "results" / "gait_identify_probe.json"
@@ -96,6 +97,14 @@ def main() -> None:
     parser.add_argument("--fixed-first", action="store_true")
     parser.add_argument("--scheme", choices=sorted(SCHEMES), default="midpoint")
     parser.add_argument("--max-iter", type=int, default=10)
+    parser.add_argument("--hessian", choices=HESSIAN_CHOICES, default="exact")
+    parser.add_argument(
+        "--solver",
+        choices=["ipopt", "gauss-newton"],
+        default="ipopt",
+        help="IPOPT (MUMPS) or colloc's Gauss-Newton with condensing",
+    )
+    parser.add_argument("--segment-nodes", type=int, default=100, help="Gauss-Newton segment")
     parser.add_argument("--pivot-order", type=int, default=None, help="mumps_pivot_order")
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument(
@@ -165,6 +174,8 @@ def main() -> None:
         "scheme": args.scheme,
         "start": args.start,
         "fixed_first": args.fixed_first,
+        "hessian": args.hessian,
+        "solver": args.solver,
         "ipopt_options": options,
     }
     if args.fixed_first:
@@ -223,7 +234,20 @@ def main() -> None:
         start_max_defect=float(np.abs(problem.defects(z0)).max()),
     )
     t0 = time.perf_counter()
-    solution = problem.solve(z0, log_path=str(args.log) if args.log else None, **options)
+    if args.solver == "gauss-newton":
+        gn = GaussNewtonOptions(
+            segment_nodes=args.segment_nodes,
+            max_iter=args.max_iter,
+            max_wall_time=float(options.get("max_wall_time", float("inf"))),
+        )
+        solution = problem.solve_gauss_newton(z0, gn)
+        record["gauss_newton"] = {k: v for k, v in solution.stats["ipopt_options"].items()}
+        if args.log:
+            args.log.write_text(solution.stats["ipopt_log"])
+    else:
+        solution = problem.solve(
+            z0, hessian=args.hessian, log_path=str(args.log) if args.log else None, **options
+        )
     record["solve_seconds"] = time.perf_counter() - t0
     record.update(
         iterations=solution.stats["iterations"],

@@ -8,11 +8,13 @@ from colloc.model.linearize import linearize
 from colloc.model.state_space import StateSpace
 from colloc.nlp import IntegralCost, Problem, Solution, TerminalCost, Tracking
 from colloc.nlp.uncertainty import ParameterUncertainty, parameter_uncertainty
+from colloc.solve.gauss_newton import GaussNewtonOptions
 
 __version__ = "0.1.0"
 
 __all__ = [
     "GainScheduled",
+    "GaussNewtonOptions",
     "IntegralCost",
     "LQRResult",
     "ParameterUncertainty",

@@ -29,7 +29,9 @@ from colloc.nlp.spec import (
     parse_instance_constraints,
 )
 from colloc.nlp.templates import Partition
-from colloc.solve.ipopt import IpoptResult, solve_nlp
+from colloc.solve.gauss_newton import ChainStructure, GaussNewtonOptions, solve_gauss_newton
+from colloc.solve.ipopt import solve_nlp
+from colloc.solve.result import SolveResult
 from colloc.transcription.base import Scheme, TimeGrid
 from colloc.transcription.midpoint import Midpoint
 
@@ -309,6 +311,21 @@ class Problem:
         -------
         Solution
         """
+        z0 = self._checked_guess(initial_guess)
+        lo, hi = self.variable_bounds()
+        result: SolveResult = solve_nlp(
+            self.nlp,
+            z0,
+            lo,
+            hi,
+            hessian=hessian,
+            progress=progress,
+            log_path=log_path,
+            options=ipopt_options,
+        )
+        return Solution.from_result(self, result)
+
+    def _checked_guess(self, initial_guess: np.ndarray) -> np.ndarray:
         z0 = np.asarray(initial_guess, dtype=float)
         if z0.shape != (self.layout.num_variables,):
             raise ValueError(
@@ -320,17 +337,79 @@ class Problem:
                 f"initial_guess: expected finite values, found {z0[bad]} at index {bad} "
                 f"({self.layout.describe_variable(bad)})"
             )
+        return z0
+
+    def chain_structure(self) -> ChainStructure:
+        """Where states, unknown parameters and defects sit, for :meth:`solve_gauss_newton`.
+
+        Raises
+        ------
+        ProblemDefinitionError
+            When the problem is not a one-step chain: a scheme with interval or derivative
+            variables (Hermite-Simpson, trapezoidal), free input trajectories, node or
+            instance constraints, or bounds.
+        """
+        lay, problems = self.layout, []
+        n = self.model.num_states
+        if lay.num_interval_variables or self.scheme.node_derivatives:
+            problems.append(
+                f"scheme: the Gauss-Newton solver needs a one-step scheme with states only at "
+                f"the nodes (BackwardEuler, Midpoint), found {self.scheme!r}"
+            )
+        if self.partition.free_inputs:
+            names = [name_of(r) for r in self.partition.free_inputs]
+            problems.append(f"free inputs {names}: the Gauss-Newton solver needs every input known")
+        others = [b.name for b in lay.blocks if b.item != "interval"]
+        if others:
+            problems.append(
+                f"constraints {others}: the Gauss-Newton solver takes only the interval defects"
+            )
         lo, hi = self.variable_bounds()
-        result: IpoptResult = solve_nlp(
-            self.nlp,
-            z0,
-            lo,
-            hi,
-            hessian=hessian,
-            progress=progress,
-            log_path=log_path,
-            options=ipopt_options,
+        if np.any(lo > -_INF) or np.any(hi < _INF):
+            problems.append("bounds: the Gauss-Newton solver does not take bounds")
+        raise_if_any(problems, ProblemDefinitionError)
+        N = lay.num_nodes
+        block = lay.blocks[0]
+        return ChainStructure(
+            node_index=(np.arange(N)[:, None] * lay.num_node_variables + np.arange(n)),
+            parameter_index=np.arange(lay.parameter_offset, lay.num_variables),
+            interval_rows=block.offset + np.arange(block.size).reshape(N - 1, n),
         )
+
+    def solve_gauss_newton(
+        self,
+        initial_guess: np.ndarray,
+        options: GaussNewtonOptions | None = None,
+        progress: Callable[[dict[str, float]], None] | None = None,
+    ) -> Solution:
+        """Solve by constrained Gauss-Newton with condensing (many unknown parameters).
+
+        Each iteration's cost grows linearly with the number of nodes and quadratically with
+        the number of unknown parameters, independently of a sparse solver's fill-in order;
+        suited to least-squares identification of thousands of parameters (gain schedules)
+        on long records. See :mod:`colloc.solve.gauss_newton`.
+
+        Parameters
+        ----------
+        initial_guess : ndarray
+            Free vector (see :meth:`initial_guess`).
+        options : GaussNewtonOptions, optional
+            Segment length, iteration and wall-time limits, tolerances.
+        progress : callable, optional
+            As for :meth:`solve`; returning ``False`` stops the solve.
+
+        Returns
+        -------
+        Solution
+            ``stats["ipopt_log"]`` holds the solver's own iteration log.
+
+        Raises
+        ------
+        ProblemDefinitionError
+            When the problem is not a one-step chain (see :meth:`chain_structure`).
+        """
+        z0 = self._checked_guess(initial_guess)
+        result = solve_gauss_newton(self.nlp, z0, self.chain_structure(), options, progress)
         return Solution.from_result(self, result)
 
     def defects(self, z: np.ndarray) -> np.ndarray:

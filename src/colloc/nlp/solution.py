@@ -14,7 +14,7 @@ from colloc.solve.status import SolveStatus
 
 if TYPE_CHECKING:
     from colloc.nlp.problem import Problem
-    from colloc.solve.ipopt import IpoptResult
+    from colloc.solve.result import SolveResult
 
 
 @dataclass
@@ -49,8 +49,8 @@ class Solution:
     multipliers: np.ndarray = field(repr=False, default_factory=lambda: np.zeros(0))
 
     @classmethod
-    def from_result(cls, problem: Problem, result: IpoptResult) -> Solution:
-        """Unpack an :class:`IpoptResult` with the problem's layout."""
+    def from_result(cls, problem: Problem, result: SolveResult) -> Solution:
+        """Unpack an :class:`SolveResult` with the problem's layout."""
         lay = problem.layout
         X = lay.node_matrix(result.x)
         node_funcs = list(problem.model.states) + list(problem.partition.free_inputs)

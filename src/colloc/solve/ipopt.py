@@ -10,15 +10,15 @@ import os
 import tempfile
 import time
 from collections.abc import Callable, Mapping
-from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Protocol
 
 import numpy as np
 
-from colloc.solve.status import SolveStatus, status_from_code
+from colloc.solve.result import SolveResult
+from colloc.solve.status import status_from_code
 
-HESSIAN_CHOICES = ("exact", "limited-memory")
+HESSIAN_CHOICES = ("exact", "limited-memory", "gauss-newton")
 
 DEFAULT_OPTIONS: dict[str, Any] = {
     "tol": 1e-8,
@@ -43,26 +43,15 @@ class NLP(Protocol):
     def hessianstructure(self) -> tuple[np.ndarray, np.ndarray]: ...  # noqa: D102
 
 
-@dataclass
-class IpoptResult:
-    """The raw outcome of :func:`solve_nlp`."""
-
-    x: np.ndarray
-    status: SolveStatus
-    objective: float
-    constraint_violation: float
-    iterations: int
-    solve_time: float
-    multipliers: np.ndarray
-    log: str
-    history: list[dict[str, float]] = field(default_factory=list)
-    options: dict[str, Any] = field(default_factory=dict)
-
-
 class _Callbacks:
     """Adapts an :class:`NLP` to cyipopt, recording the iteration history."""
 
-    def __init__(self, nlp: NLP, progress: Callable[[dict[str, float]], None] | None) -> None:
+    def __init__(
+        self,
+        nlp: NLP,
+        progress: Callable[[dict[str, float]], None] | None,
+        gauss_newton: bool = False,
+    ) -> None:
         self.nlp = nlp
         self.progress = progress
         self.history: list[dict[str, float]] = []
@@ -71,8 +60,15 @@ class _Callbacks:
         self.constraints = nlp.constraints
         self.jacobian = nlp.jacobian
         self.jacobianstructure = nlp.jacobianstructure
-        self.hessian = nlp.hessian
+        self.hessian = self._objective_hessian if gauss_newton else nlp.hessian
+        self._no_multipliers = np.zeros(nlp.m)
         self.hessianstructure = nlp.hessianstructure
+
+    def _objective_hessian(
+        self, z: np.ndarray, lagrange: np.ndarray, obj_factor: float
+    ) -> np.ndarray:
+        # Gauss-Newton: the constraints' curvature (multiplier-weighted) is left out
+        return self.nlp.hessian(z, self._no_multipliers, obj_factor)
 
     def intermediate(
         self,
@@ -110,7 +106,7 @@ def solve_nlp(
     progress: Callable[[dict[str, float]], None] | None = None,
     log_path: str | os.PathLike[str] | None = None,
     options: Mapping[str, Any] | None = None,
-) -> IpoptResult:
+) -> SolveResult:
     """Solve ``min f(z) s.t. g(z) = 0, lower <= z <= upper`` with IPOPT.
 
     Parameters
@@ -127,14 +123,15 @@ def solve_nlp(
 
     Returns
     -------
-    IpoptResult
+    SolveResult
     """
     import cyipopt
 
     if hessian not in HESSIAN_CHOICES:
         raise ValueError(f"hessian: expected one of {HESSIAN_CHOICES}, found {hessian!r}")
-    opts = {**DEFAULT_OPTIONS, "hessian_approximation": hessian, **dict(options or {})}
-    callbacks = _Callbacks(nlp, progress)
+    approximation = "limited-memory" if hessian == "limited-memory" else "exact"
+    opts = {**DEFAULT_OPTIONS, "hessian_approximation": approximation, **dict(options or {})}
+    callbacks = _Callbacks(nlp, progress, gauss_newton=hessian == "gauss-newton")
     problem = cyipopt.Problem(
         n=nlp.n,
         m=nlp.m,
@@ -171,7 +168,7 @@ def solve_nlp(
             tmp_dir.cleanup()
     g = np.asarray(info["g"], dtype=float)
     iterations = int(callbacks.history[-1]["iteration"]) if callbacks.history else 0
-    return IpoptResult(
+    return SolveResult(
         x=np.asarray(x, dtype=float),
         status=status_from_code(int(info["status"])),
         objective=float(info["obj_val"]),

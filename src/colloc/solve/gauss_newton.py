@@ -1,0 +1,545 @@
+"""Constrained Gauss-Newton for one-step collocation with many global parameters.
+
+For an NLP ``min f(z) s.t. c(z) = 0`` whose variables are states ``x_k`` at nodes
+``k = 0..N-1`` plus ``q`` global parameters ``theta``, and whose constraints are one block of
+``n`` defects per interval linking ``x_k``, ``x_{k+1}`` and ``theta`` (backward Euler,
+midpoint), each step solves the Gauss-Newton model (the objective's Hessian; the constraints'
+curvature is left out) with the linearized defects eliminated by *condensing*: within a
+segment of nodes the state step is propagated forward,
+
+    dx_{k+1} = -E_k^{-1} (D_k dx_k + T_k dtheta + c_k),
+
+so each segment contributes a dense block in its first state and ``theta`` only, and the
+segments are joined by the linearized defects at their boundaries. The reduced system has
+``n * segments + q`` unknowns, so the cost per iteration grows linearly in ``N`` (where a
+general sparse LDL^T of the KKT matrix fills the parameter block in at every node) and each
+segment can be checked against a wall-time limit or interrupted without losing the last
+accepted iterate. The step is damped (Levenberg-Marquardt on the reduced Hessian) and
+globalised by a backtracking line search on the l1 merit ``f + mu ||c||_1``.
+
+This is the classical approach to parameter estimation in ODEs by collocation or multiple
+shooting (Bock's generalized Gauss-Newton with condensing); the implementation is ours.
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable
+from dataclasses import dataclass
+from typing import Any, Protocol
+
+import numpy as np
+import scipy.linalg as sla
+
+from colloc.solve.result import SolveResult
+from colloc.solve.status import status_from_code
+
+SUCCEEDED, STALLED, USER_STOP, MAX_ITER, WALL_TIME, INVALID_NUMBER = 0, 3, 5, -1, -5, -13
+
+
+class ChainNLP(Protocol):
+    """What the Gauss-Newton solver needs from an assembled problem."""
+
+    n: int
+    m: int
+
+    def objective(self, z: np.ndarray) -> float: ...  # noqa: D102
+    def gradient(self, z: np.ndarray) -> np.ndarray: ...  # noqa: D102
+    def constraints(self, z: np.ndarray) -> np.ndarray: ...  # noqa: D102
+    def jacobian(self, z: np.ndarray) -> np.ndarray: ...  # noqa: D102
+    def jacobianstructure(self) -> tuple[np.ndarray, np.ndarray]: ...  # noqa: D102
+    def hessian(self, z: np.ndarray, lagrange: np.ndarray, obj_factor: float) -> np.ndarray: ...  # noqa: D102
+    def hessianstructure(self) -> tuple[np.ndarray, np.ndarray]: ...  # noqa: D102
+
+
+@dataclass(frozen=True)
+class ChainStructure:
+    """Where the states, the parameters and the defects of a one-step NLP sit.
+
+    Attributes
+    ----------
+    node_index : ndarray of int, shape (N, n)
+        Free-vector index of state ``j`` at node ``k``.
+    parameter_index : ndarray of int, shape (q,)
+        Free-vector index of each global parameter.
+    interval_rows : ndarray of int, shape (N - 1, n)
+        Constraint row of defect ``i`` of interval ``k`` (between nodes ``k`` and ``k + 1``).
+    """
+
+    node_index: np.ndarray
+    parameter_index: np.ndarray
+    interval_rows: np.ndarray
+
+    def __post_init__(self) -> None:
+        N, n = np.shape(self.node_index)
+        if np.shape(self.interval_rows) != (N - 1, n):
+            raise ValueError(
+                f"interval_rows: expected shape ({N - 1}, {n}) for {N} nodes of {n} states, "
+                f"found {np.shape(self.interval_rows)}"
+            )
+        if N < 2:
+            raise ValueError(f"node_index: expected at least 2 nodes, found {N}")
+
+
+@dataclass(frozen=True)
+class GaussNewtonOptions:
+    """Settings of :func:`solve_gauss_newton`.
+
+    Attributes
+    ----------
+    segment_nodes : int
+        Nodes per condensing segment (about one stride keeps the propagated sensitivities
+        bounded on a stable closed loop; fewer is more robust, more is cheaper).
+    max_iter : int
+    tol : float
+        Converged when the Gauss-Newton model's predicted decrease is below
+        ``tol * max(1, |f|)`` and the largest defect below ``constraint_tol``.
+    constraint_tol : float
+    damping : float
+        Initial Levenberg-Marquardt factor on the reduced Hessian's diagonal.
+    max_wall_time : float
+        Seconds; checked after every segment, so a long iteration stops too.
+    max_backtracks : int
+        Halvings of the step before the line search gives up.
+    """
+
+    segment_nodes: int = 100
+    max_iter: int = 100
+    tol: float = 1e-10
+    constraint_tol: float = 1e-8
+    damping: float = 1e-6
+    max_wall_time: float = float("inf")
+    max_backtracks: int = 30
+
+    def __post_init__(self) -> None:
+        problems = []
+        if not (isinstance(self.segment_nodes, int) and self.segment_nodes >= 2):
+            problems.append(
+                f"segment_nodes: expected an integer >= 2, found {self.segment_nodes!r}"
+            )
+        if not (isinstance(self.max_iter, int) and self.max_iter >= 0):
+            problems.append(f"max_iter: expected an integer >= 0, found {self.max_iter!r}")
+        for name in ("tol", "constraint_tol", "damping", "max_wall_time"):
+            value = getattr(self, name)
+            if not (isinstance(value, int | float) and value > 0):
+                problems.append(f"{name}: expected a positive number, found {value!r}")
+        if not (isinstance(self.max_backtracks, int) and self.max_backtracks >= 1):
+            problems.append(
+                f"max_backtracks: expected an integer >= 1, found {self.max_backtracks!r}"
+            )
+        if problems:
+            raise ValueError("; ".join(problems))
+
+
+class _WallTime(Exception):
+    """The wall-time limit passed inside an iteration."""
+
+
+@dataclass
+class _Blocks:
+    """The linearization at one iterate, in chain form."""
+
+    D: np.ndarray  # (N-1, n, n) d c_k / d x_k
+    E: np.ndarray  # (N-1, n, n) d c_k / d x_{k+1}
+    T: np.ndarray  # (N-1, n, width) d c_k / d theta on the interval's own columns
+    c: np.ndarray  # (N-1, n)
+    A: np.ndarray  # (N-1, n, n) -E_k^{-1} D_k
+    B: np.ndarray  # (N-1, n, width) -E_k^{-1} T_k
+    a: np.ndarray  # (N-1, n) -E_k^{-1} c_k
+    g: np.ndarray  # (N, n) objective gradient by node
+    g_theta: np.ndarray  # (q,)
+    H: np.ndarray  # (N, n, n) objective Hessian by node (PSD part)
+    H_theta: np.ndarray  # (q, q)
+
+
+class _Chain:
+    """Index maps from the NLP's sparse triplets to the chain blocks (computed once)."""
+
+    def __init__(self, nlp: ChainNLP, s: ChainStructure) -> None:
+        N, n = s.node_index.shape
+        q = s.parameter_index.size
+        self.N, self.n, self.q = N, n, q
+        self.num_variables = nlp.n
+        node_of = np.full(nlp.n, -1, np.int64)
+        local = np.full(nlp.n, -1, np.int64)
+        node_of[s.node_index.ravel()] = np.repeat(np.arange(N), n)
+        local[s.node_index.ravel()] = np.tile(np.arange(n), N)
+        theta_of = np.full(nlp.n, -1, np.int64)
+        theta_of[s.parameter_index] = np.arange(q)
+        covered = (node_of >= 0) | (theta_of >= 0)
+        if not covered.all():
+            raise ValueError(
+                f"structure: {int((~covered).sum())} free variables are neither node states nor "
+                "parameters (free inputs or interval variables are not supported)"
+            )
+        interval_of = np.full(nlp.m, -1, np.int64)
+        row_local = np.full(nlp.m, -1, np.int64)
+        interval_of[s.interval_rows.ravel()] = np.repeat(np.arange(N - 1), n)
+        row_local[s.interval_rows.ravel()] = np.tile(np.arange(n), N - 1)
+        if (interval_of < 0).any():
+            raise ValueError(
+                f"structure: {int((interval_of < 0).sum())} constraint rows are not interval "
+                "defects (instance or node constraints are not supported)"
+            )
+        self.row_order = s.interval_rows.ravel()
+        rows, cols = nlp.jacobianstructure()
+        k, i = interval_of[rows], row_local[rows]
+        node, j = node_of[cols], local[cols]
+        self.d_mask = node == k
+        self.e_mask = node == k + 1
+        self.t_mask = theta_of[cols] >= 0
+        stray = ~(self.d_mask | self.e_mask | self.t_mask)
+        if stray.any():
+            e = int(np.flatnonzero(stray)[0])
+            raise ValueError(
+                f"structure: defect row {int(rows[e])} of interval {int(k[e])} depends on "
+                f"variable {int(cols[e])} of node {int(node[e])}: not a one-step chain"
+            )
+        self.d_flat = ((k * n + i) * n + j)[self.d_mask]
+        self.e_flat = ((k * n + i) * n + j)[self.e_mask]
+        # each interval's parameter columns, padded with the dummy column q
+        tk, tc = k[self.t_mask], theta_of[cols][self.t_mask]
+        pairs = np.unique(tk * (q + 1) + tc)
+        pk, pc = np.divmod(pairs, q + 1)
+        starts = np.searchsorted(pk, np.arange(N - 1))
+        rank = np.arange(pairs.size) - starts[pk]
+        width = int(rank.max(initial=-1)) + 1
+        self.columns = np.full((N - 1, max(width, 1)), q, np.int64)
+        self.columns[pk, rank] = pc
+        slot = rank[np.searchsorted(pairs, tk * (q + 1) + tc)]
+        self.width = max(width, 1)
+        self.t_flat = (tk * n + i[self.t_mask]) * self.width + slot
+        hr, hc = nlp.hessianstructure()
+        self.h_node = (node_of[hr] >= 0) & (node_of[hr] == node_of[hc])
+        self.h_flat = ((node_of[hr] * n + local[hr]) * n + local[hc])[self.h_node]
+        self.h_flat_t = ((node_of[hr] * n + local[hc]) * n + local[hr])[self.h_node]
+        self.h_theta = (theta_of[hr] >= 0) & (theta_of[hc] >= 0)
+        self.ht_r, self.ht_c = theta_of[hr][self.h_theta], theta_of[hc][self.h_theta]
+        self.h_other = ~(self.h_node | self.h_theta)
+        self.node_index, self.parameter_index = s.node_index, s.parameter_index
+        self.no_multipliers = np.zeros(nlp.m)
+
+    def blocks(self, nlp: ChainNLP, z: np.ndarray) -> _Blocks:
+        N, n, q = self.N, self.n, self.q
+        jac = nlp.jacobian(z)
+        D = np.bincount(self.d_flat, jac[self.d_mask], (N - 1) * n * n).reshape(N - 1, n, n)
+        E = np.bincount(self.e_flat, jac[self.e_mask], (N - 1) * n * n).reshape(N - 1, n, n)
+        w = self.width
+        T = np.bincount(self.t_flat, jac[self.t_mask], (N - 1) * n * w).reshape(N - 1, n, w)
+        c = nlp.constraints(z)[self.row_order].reshape(N - 1, n)
+        propagated = -np.linalg.solve(E, np.concatenate([D, T, c[:, :, None]], axis=2))
+        grad = nlp.gradient(z)
+        hess = nlp.hessian(z, self.no_multipliers, 1.0)
+        if np.any(hess[self.h_other] != 0.0):
+            raise ValueError(
+                "objective: its Hessian couples different nodes or a node with a parameter; "
+                "the Gauss-Newton solver supports objectives that are sums of per-node terms "
+                "and of parameter-only terms"
+            )
+        v = hess[self.h_node]
+        H = np.zeros(N * n * n)
+        np.add.at(H, self.h_flat, v)
+        off = self.h_flat != self.h_flat_t
+        np.add.at(H, self.h_flat_t[off], v[off])
+        H = _positive_part(H.reshape(N, n, n))
+        vt = hess[self.h_theta]
+        H_theta = np.zeros((q, q))
+        np.add.at(H_theta, (self.ht_r, self.ht_c), vt)
+        off_t = self.ht_r != self.ht_c
+        np.add.at(H_theta, (self.ht_c[off_t], self.ht_r[off_t]), vt[off_t])
+        return _Blocks(
+            D,
+            E,
+            T,
+            c,
+            propagated[:, :, :n],
+            propagated[:, :, n : n + w],
+            propagated[:, :, -1],
+            grad[self.node_index],
+            grad[self.parameter_index],
+            H,
+            H_theta,
+        )
+
+
+def _positive_part(H: np.ndarray) -> np.ndarray:
+    """Each symmetric block with its negative eigenvalues set to zero (Gauss-Newton)."""
+    w, V = np.linalg.eigh(H)
+    if (w >= 0).all():
+        return H
+    return np.einsum("kij,kj,klj->kil", V, np.maximum(w, 0.0), V)
+
+
+def _segments(N: int, length: int) -> list[tuple[int, int]]:
+    """First and last node of each segment; the last one absorbs a short remainder."""
+    starts = list(range(0, N - 1, length))
+    if len(starts) > 1 and N - 1 - starts[-1] < length // 2:
+        starts.pop()
+    ends = [s - 1 for s in starts[1:]] + [N - 1]
+    return list(zip(starts, ends, strict=True))
+
+
+class _Step:
+    """Condense, solve the reduced system, expand: one Gauss-Newton step."""
+
+    def __init__(self, chain: _Chain, segments: list[tuple[int, int]]) -> None:
+        self.chain, self.segments = chain, segments
+
+    def compute(
+        self, b: _Blocks, damping: float, deadline: float
+    ) -> tuple[np.ndarray, np.ndarray, float]:
+        ch = self.chain
+        n, q, S = ch.n, ch.q, len(self.segments)
+        w, V = np.linalg.eigh(b.H)
+        keep = w > 1e-14 * max(float(w.max(initial=0.0)), 1e-300)
+        factor = V * np.sqrt(np.maximum(w, 0.0))[:, None, :]  # H_k = F_k F_k^T
+        size = S * n + q
+        H_r = np.zeros((size, size))
+        g_r = np.zeros(size)
+        H_r[S * n :, S * n :] += b.H_theta
+        g_r[S * n :] += b.g_theta
+        link_rows = []
+        for s, (first, last) in enumerate(self.segments):
+            X = np.zeros((n, n + q + 1))  # the last column absorbs padding
+            X[:, :n] = np.eye(n)
+            d = np.zeros(n)
+            active = np.zeros(q + 1, bool)
+            rows = []
+            grad = np.zeros(n + q + 1)
+            for k in range(first, last + 1):
+                if keep[k].any():
+                    rows.append(factor[k][:, keep[k]].T @ X)
+                    grad += X.T @ (b.g[k] + b.H[k] @ d)
+                if k < last:
+                    cols = ch.columns[k]
+                    X = b.A[k] @ X
+                    X[:, n + cols] += b.B[k]
+                    d = b.A[k] @ d + b.a[k]
+                    active[cols] = True
+            if time.perf_counter() > deadline:
+                raise _WallTime
+            used = np.flatnonzero(active[:q])
+            local = np.r_[np.arange(n), n + used]
+            index = np.r_[np.arange(s * n, (s + 1) * n), S * n + used]
+            if rows:
+                R = np.vstack(rows)[:, local]
+                G = sla.blas.dsyrk(1.0, R, trans=1)
+                G = np.triu(G) + np.triu(G, 1).T
+                H_r[np.ix_(index, index)] += G
+            g_r[index] += grad[local]
+            if last < ch.N - 1:
+                k = last
+                row = np.zeros((n, size + 1))
+                row[:, s * n : (s + 1) * n] = b.D[k] @ X[:, :n]
+                row[:, S * n :] = b.D[k] @ X[:, n:]
+                row[:, S * n + ch.columns[k]] += b.T[k]
+                row[:, (s + 1) * n : (s + 2) * n] = b.E[k]
+                link_rows.append((row[:, :size], -b.c[k] - b.D[k] @ d))
+        diag = np.diag(H_r).copy()
+        floor = 1e-8 * max(float(diag.max(initial=0.0)), 1.0)
+        H_d = H_r + damping * np.diag(np.maximum(diag, floor))
+        if link_rows:
+            B = np.vstack([r for r, _ in link_rows])
+            rhs_c = np.concatenate([v for _, v in link_rows])
+            m_c = B.shape[0]
+            K = np.block([[H_d, B.T], [B, np.zeros((m_c, m_c))]])
+            sol = sla.solve(K, np.r_[-g_r, rhs_c], assume_a="sym")
+            dp = sol[:size]
+        else:
+            dp = sla.solve(H_d, -g_r, assume_a="sym")
+        stationarity = float(np.abs(H_d @ dp).max(initial=0.0))
+        return dp, self.expand(b, dp), stationarity
+
+    def expand(self, b: _Blocks, dp: np.ndarray) -> np.ndarray:
+        """The full step: states propagated through every segment from its first state."""
+        ch = self.chain
+        n, S = ch.n, len(self.segments)
+        dtheta = np.r_[dp[S * n :], 0.0]
+        forcing = np.einsum("kij,kj->ki", b.B, dtheta[ch.columns]) + b.a
+        dx = np.zeros((ch.N, n))
+        for s, (first, last) in enumerate(self.segments):
+            dx[first] = dp[s * n : (s + 1) * n]
+            for k in range(first, last):
+                dx[k + 1] = b.A[k] @ dx[k] + forcing[k]
+        full = np.zeros(ch.num_variables)
+        full[ch.node_index.ravel()] = dx.ravel()
+        full[ch.parameter_index] = dtheta[:-1]
+        return full
+
+
+def _multipliers(chain: _Chain, b: _Blocks, m: int) -> np.ndarray:
+    """Defect multipliers (``L = f + lambda^T c``) by the backward adjoint recursion."""
+    N, n = chain.N, chain.n
+    lam = np.zeros((N - 1, n))
+    lam[N - 2] = -np.linalg.solve(b.E[N - 2].T, b.g[N - 1])
+    for k in range(N - 2, 0, -1):
+        lam[k - 1] = -np.linalg.solve(b.E[k - 1].T, b.g[k] + b.D[k].T @ lam[k])
+    out = np.zeros(m)
+    out[chain.row_order] = lam.ravel()
+    return out
+
+
+def solve_gauss_newton(
+    nlp: ChainNLP,
+    x0: np.ndarray,
+    structure: ChainStructure,
+    options: GaussNewtonOptions | None = None,
+    progress: Callable[[dict[str, float]], Any] | None = None,
+) -> SolveResult:
+    """Solve ``min f(z) s.t. c(z) = 0`` on a one-step chain by constrained Gauss-Newton.
+
+    Parameters
+    ----------
+    nlp : ChainNLP
+        Objective, gradient, defects, their sparse Jacobian and the objective's Hessian
+        (``hessian`` with zero multipliers).
+    x0 : ndarray
+        Start.
+    structure : ChainStructure
+        Where the states, parameters and defects sit.
+    options : GaussNewtonOptions, optional
+    progress : callable, optional
+        Called after every iteration with ``iteration``, ``objective``, ``infeasibility``,
+        ``dual_infeasibility`` (the reduced stationarity), ``step`` and ``alpha``;
+        returning ``False`` stops the solve.
+
+    Returns
+    -------
+    SolveResult
+        The last accepted iterate (also after a stop, a wall-time limit or Ctrl-C), its
+        status, the defect multipliers from the adjoint recursion, the iteration history
+        and a text log of it.
+
+    Raises
+    ------
+    ValueError
+        When the NLP is not a one-step chain (a defect depends on a non-adjacent node,
+        a variable is neither a state nor a parameter, a constraint is not a defect) or the
+        objective couples nodes.
+    """
+    opts = options or GaussNewtonOptions()
+    t_start = time.perf_counter()
+    deadline = t_start + opts.max_wall_time
+    chain = _Chain(nlp, structure)
+    stepper = _Step(chain, _segments(chain.N, opts.segment_nodes))
+    z = np.asarray(x0, dtype=float).copy()
+    if z.shape != (nlp.n,):
+        raise ValueError(f"x0: expected shape ({nlp.n},), found {z.shape}")
+    history: list[dict[str, float]] = []
+    lines = [
+        f"Gauss-Newton with condensing: N={chain.N}, states={chain.n}, parameters={chain.q}, "
+        f"segments={len(stepper.segments)}",
+        f"{'iter':>4} {'objective':>14} {'inf_pr':>9} {'stationary':>10} {'|dz|':>9} "
+        f"{'alpha':>8} {'ratio':>8} {'damping':>8} {'merit_mu':>8}",
+    ]
+    timing = {"evaluations": 0.0, "condensing": 0.0, "line_search": 0.0}
+    mu, damping = 0.0, opts.damping
+    status, iterations = MAX_ITER, 0
+    blocks: _Blocks | None = None
+    f = nlp.objective(z)
+    c = nlp.constraints(z)
+    try:
+        for it in range(opts.max_iter + 1):
+            if not (np.isfinite(f) and np.all(np.isfinite(c))):
+                status = INVALID_NUMBER
+                break
+            t0 = time.perf_counter()
+            blocks = chain.blocks(nlp, z)
+            t1 = time.perf_counter()
+            timing["evaluations"] += t1 - t0
+            if it == opts.max_iter:
+                break
+            dp, dz, stationarity = stepper.compute(blocks, damping, deadline)
+            t2 = time.perf_counter()
+            timing["condensing"] += t2 - t1
+            g = nlp.gradient(z)
+            dx = dz[chain.node_index]
+            curvature = float(np.einsum("ki,kij,kj->", dx, blocks.H, dx))
+            dth = dz[chain.parameter_index]
+            curvature += float(dth @ blocks.H_theta @ dth)
+            slope = float(g @ dz)
+            c_norm = float(np.abs(c).sum())
+            if c_norm > 0:
+                mu = max(mu, (slope + 0.5 * curvature) / (0.9 * c_norm) + 1e-12)
+            merit = f + mu * c_norm
+            derivative = slope - mu * c_norm
+            predicted = -(slope + 0.5 * curvature)
+            infeasibility = float(np.abs(c).max(initial=0.0))
+            if infeasibility <= opts.constraint_tol and predicted <= opts.tol * max(1.0, abs(f)):
+                status = SUCCEEDED
+                break
+            alpha, accepted = 1.0, False
+            for _ in range(opts.max_backtracks):
+                trial = z + alpha * dz
+                f_t = nlp.objective(trial)
+                c_t = nlp.constraints(trial)
+                merit_t = f_t + mu * float(np.abs(c_t).sum())
+                if np.isfinite(merit_t) and merit_t <= merit + 1e-4 * alpha * derivative:
+                    accepted = True
+                    break
+                alpha *= 0.5
+            timing["line_search"] += time.perf_counter() - t2
+            if not accepted:
+                status = STALLED
+                break
+            # trust in the model: the merit's actual against its predicted decrease
+            ratio = (merit - merit_t) / max(alpha * (predicted + mu * c_norm), 1e-300)
+            z, f, c = trial, f_t, c_t
+            iterations = it + 1
+            if ratio > 0.75 and alpha == 1.0:
+                damping = max(damping / 3.0, 1e-12)
+            elif ratio < 0.25:
+                damping = min(damping * 4.0, 1e6)
+            row = {
+                "iteration": float(iterations),
+                "objective": float(f),
+                "infeasibility": float(np.abs(c).max(initial=0.0)),
+                "dual_infeasibility": stationarity,
+                "step": float(np.abs(dz).max(initial=0.0)),
+                "alpha": alpha,
+                "ratio": ratio,
+                "damping": damping,
+            }
+            history.append(row)
+            lines.append(
+                f"{iterations:4d} {f:14.7e} {row['infeasibility']:9.2e} {stationarity:10.2e} "
+                f"{row['step']:9.2e} {alpha:8.2e} {ratio:8.2f} {damping:8.1e} {mu:8.1e}"
+            )
+            if progress is not None and progress(row) is False:
+                status = USER_STOP
+                break
+            if time.perf_counter() > deadline:
+                status = WALL_TIME
+                break
+    except _WallTime:
+        status = WALL_TIME
+    except KeyboardInterrupt:
+        status = USER_STOP
+        lines.append("interrupted (Ctrl-C): returning the last accepted iterate")
+    elapsed = time.perf_counter() - t_start
+    multipliers = np.full(nlp.m, np.nan)
+    if blocks is not None:
+        multipliers = _multipliers(chain, blocks, nlp.m)
+    lines.append(
+        "seconds: "
+        + ", ".join(f"{k} {v:.3f}" for k, v in timing.items())
+        + f", total {elapsed:.3f}"
+    )
+    result_status = status_from_code(status)
+    lines.append(f"status: {result_status}")
+    return SolveResult(
+        x=z,
+        status=result_status,
+        objective=float(f),
+        constraint_violation=float(np.abs(c).max(initial=0.0)),
+        iterations=iterations,
+        solve_time=elapsed,
+        multipliers=multipliers,
+        log="\n".join(lines),
+        history=history,
+        options={
+            "solver": "gauss-newton",
+            **{k: getattr(opts, k) for k in opts.__dataclass_fields__},
+            "timing": timing,
+        },
+    )

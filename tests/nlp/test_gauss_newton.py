@@ -1,0 +1,152 @@
+"""The constrained Gauss-Newton solver with condensing, on the gain-scheduled two-mass toy.
+
+References: IPOPT's optimum and multipliers on the same problem (a second method), a
+direct sparse solve of the full Gauss-Newton KKT system for the first step, and the known
+schedule the data were simulated with.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+import scipy.sparse as sp
+import scipy.sparse.linalg as spla
+from test_schedule_engine import (
+    F1,
+    F2,
+    ID_STRIKES,
+    PLANT,
+    closed_toy,
+    excitation,
+    identification_times,
+    phase_from_strikes,
+    q1,
+    q2,
+    simulate,
+    true_schedule,
+    u1,
+    u2,
+)
+
+from colloc import GaussNewtonOptions, Problem, ProblemDefinitionError, Tracking
+from colloc.solve import ChainStructure, solve_gauss_newton
+from colloc.transcription import BackwardEuler, HermiteSimpson, Midpoint
+
+
+def toy_problem(scheme, bounds=None):
+    closed, gs = closed_toy("full")
+    Tstar, K = true_schedule("full")
+    times = identification_times()  # the schedule's kinks are nodes
+    X = simulate(Tstar, K, times)
+    F = excitation(times)
+    problem = Problem(
+        closed,
+        times,
+        scheme=scheme,
+        known_trajectories={
+            gs.phase: phase_from_strikes(times, ID_STRIKES),
+            F1: F[:, 0],
+            F2: F[:, 1],
+        },
+        known_parameters=PLANT,
+        objective=Tracking({q1: X[:, 0], q2: X[:, 1]}),
+        bounds=bounds,
+        cache=False,
+    )
+    rates = {u1: np.gradient(X[:, 0], times), u2: np.gradient(X[:, 1], times)}
+    guess = problem.initial_guess({q1: X[:, 0], q2: X[:, 1], **rates})
+    return problem, gs, Tstar, K, guess
+
+
+@pytest.fixture(scope="module", params=[BackwardEuler(), Midpoint()], ids=["be", "midpoint"])
+def solved(request):
+    problem, gs, Tstar, K, guess = toy_problem(request.param)
+    reference = problem.solve(guess, print_level=0, tol=1e-12)
+    assert reference.status.success
+    return problem, gs, Tstar, K, guess, reference
+
+
+@pytest.mark.parametrize("segment", [7, 50, 1000])
+def test_optimum_and_multipliers_match_ipopt(solved, segment):
+    problem, _, _, _, guess, reference = solved
+    options = GaussNewtonOptions(segment_nodes=segment, tol=1e-16, constraint_tol=1e-11)
+    solution = problem.solve_gauss_newton(guess, options)
+    assert solution.status.success
+    scale = np.abs(reference.z).max()
+    np.testing.assert_allclose(solution.z, reference.z, atol=1e-6 * scale)
+    lam = np.abs(reference.multipliers).max()
+    np.testing.assert_allclose(solution.multipliers, reference.multipliers, atol=1e-5 * lam)
+    assert solution.stats["constraint_violation"] <= 1e-11
+
+
+def test_midpoint_recovers_the_simulated_schedule(solved):
+    problem, gs, Tstar, K, guess, _ = solved
+    if not isinstance(problem.scheme, Midpoint):
+        pytest.skip("backward Euler's first-order error biases the schedule")
+    solution = problem.solve_gauss_newton(guess, GaussNewtonOptions(tol=1e-16))
+    Tstar_hat, K_hat = gs.arrays(solution.parameters)
+    # midpoint's O(h^2) error at h = 0.01 s: a few parts in a thousand of the peak values
+    np.testing.assert_allclose(Tstar_hat, Tstar, atol=3e-3 * np.abs(Tstar).max())
+    np.testing.assert_allclose(K_hat, K, atol=3e-3 * np.abs(K).max())
+
+
+def test_first_step_equals_a_direct_solve_of_the_kkt_system(solved):
+    """Condensing over segments is exact linear algebra: the first (undamped, full) step is
+    the solution of [H J^T; J 0] with H the objective's Hessian, solved by SuperLU."""
+    problem, _, _, _, guess, _ = solved
+    nlp = problem.nlp
+    jr, jc = nlp.jacobianstructure()
+    J = sp.csr_matrix((nlp.jacobian(guess), (jr, jc)), shape=(nlp.m, nlp.n))
+    hr, hc = nlp.hessianstructure()
+    Hl = sp.csr_matrix((nlp.hessian(guess, np.zeros(nlp.m), 1.0), (hr, hc)), (nlp.n, nlp.n))
+    H = Hl + sp.triu(Hl.T, 1)
+    kkt = sp.bmat([[H, J.T], [J, None]], format="csc")
+    rhs = np.r_[-nlp.gradient(guess), -nlp.constraints(guess)]
+    direct = spla.spsolve(kkt, rhs)[: nlp.n]
+    options = GaussNewtonOptions(segment_nodes=13, max_iter=1, damping=1e-14)
+    result = solve_gauss_newton(nlp, guess, problem.chain_structure(), options)
+    assert result.history[0]["alpha"] == 1.0
+    np.testing.assert_allclose(result.x - guess, direct, atol=1e-7 * np.abs(direct).max())
+
+
+def test_wall_time_and_interrupt_keep_the_last_accepted_iterate(solved):
+    problem, _, _, _, guess, _ = solved
+    stopped = problem.solve_gauss_newton(guess, GaussNewtonOptions(max_wall_time=1e-9))
+    assert stopped.status.name == "Maximum_WallTime_Exceeded"
+    np.testing.assert_array_equal(stopped.z, guess)
+
+    seen = []
+
+    def interrupt(row):
+        seen.append(row["objective"])
+        if len(seen) == 2:
+            raise KeyboardInterrupt
+
+    solution = problem.solve_gauss_newton(guess, progress=interrupt)
+    assert solution.status.name == "User_Requested_Stop"
+    assert solution.stats["iterations"] == 2
+    assert solution.stats["objective"] == pytest.approx(seen[-1])
+    assert "Ctrl-C" in solution.stats["ipopt_log"]
+
+
+def test_progress_returning_false_stops_after_that_iteration(solved):
+    problem, _, _, _, guess, _ = solved
+    solution = problem.solve_gauss_newton(guess, progress=lambda row: False)
+    assert solution.status.name == "User_Requested_Stop"
+    assert solution.stats["iterations"] == 1
+
+
+def test_problems_that_are_not_a_chain_are_refused():
+    problem, *_, guess = toy_problem(HermiteSimpson())
+    with pytest.raises(ProblemDefinitionError, match="scheme: .*one-step scheme"):
+        problem.solve_gauss_newton(guess)
+    problem, *_, guess = toy_problem(BackwardEuler(), bounds={q1: (-2.0, 2.0)})
+    with pytest.raises(ProblemDefinitionError, match="bounds"):
+        problem.solve_gauss_newton(guess)
+
+
+def test_structure_and_options_are_validated():
+    with pytest.raises(ValueError, match=r"interval_rows: expected shape \(2, 3\)"):
+        ChainStructure(np.zeros((3, 3), int), np.zeros(0, int), np.zeros((3, 3), int))
+    with pytest.raises(ValueError, match="segment_nodes: .*found 1.*tol: .*found -1"):
+        GaussNewtonOptions(segment_nodes=1, tol=-1)
