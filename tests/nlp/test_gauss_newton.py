@@ -150,3 +150,13 @@ def test_structure_and_options_are_validated():
         ChainStructure(np.zeros((3, 3), int), np.zeros(0, int), np.zeros((3, 3), int))
     with pytest.raises(ValueError, match="segment_nodes: .*found 1.*tol: .*found -1"):
         GaussNewtonOptions(segment_nodes=1, tol=-1)
+
+
+def test_ipopt_with_the_gauss_newton_hessian_reaches_the_same_optimum(solved):
+    """IPOPT's hessian='gauss-newton' leaves out the constraints' curvature: a different
+    path (its own linear algebra and line search) to the same optimum."""
+    problem, _, _, _, guess, reference = solved
+    solution = problem.solve(guess, hessian="gauss-newton", print_level=0, tol=1e-12)
+    assert solution.status.success
+    scale = np.abs(reference.z).max()
+    np.testing.assert_allclose(solution.z, reference.z, atol=1e-6 * scale)
