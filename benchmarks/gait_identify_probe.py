@@ -205,12 +205,17 @@ def main() -> None:
             start_forces = {w: np.r_[0.0, rows[:, r]] for r, w in residual_forces.items()}
             z = fixed.initial_guess({**states, **start_forces})
         record["fixed_start_max_defect"] = float(np.abs(fixed.defects(z)).max())
-        solved = fixed.solve(z, **{**options, "max_iter": 500})
+        if args.solver == "gauss-newton":
+            gn = GaussNewtonOptions(segment_nodes=args.segment_nodes, max_iter=200)
+            solved = fixed.solve_gauss_newton(z, gn)
+        else:
+            solved = fixed.solve(z, **{**options, "max_iter": 500})
         record["fixed"] = {
             "seconds": time.perf_counter() - t0,
             "iterations": solved.stats["iterations"],
             "status": solved.stats["status"],
             "constraint_violation": solved.stats["constraint_violation"],
+            "log_tail": solved.stats["ipopt_log"][-600:],
             **timing(solved.stats["ipopt_log"]),
         }
         states = {x: solved.trajectories[x] for x in model.states}

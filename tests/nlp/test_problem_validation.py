@@ -323,7 +323,9 @@ def test_initial_guess_finite(problem):
 
 
 def test_hessian_option(problem):
-    with pytest.raises(ValueError, match=r"hessian: expected one of \('exact', 'limited-memory'\)"):
+    with pytest.raises(
+        ValueError, match=r"hessian: expected one of \('exact', 'limited-memory', 'gauss-newton'\)"
+    ):
         problem.solve(np.zeros(15), hessian="bfgs")
 
 
