@@ -25,6 +25,10 @@ noise on the six joints, residual forces on the trunk's x, y, angle), penalised 
 that the start satisfies every dynamic defect (exactly with backward Euler, whose residual is
 evaluated at the nodes). ``--friction-velocity`` overrides the contact's ``v_s`` (a softer
 friction law) in every solve.
+
+``--solver gauss-newton`` solves with colloc's constrained Gauss-Newton with condensing
+(``Problem.solve_gauss_newton``, ``--segment-nodes`` per condensing segment) instead of IPOPT;
+its log replaces IPOPT's and its time split is in ``gauss_newton.timing``.
 """
 
 from __future__ import annotations
