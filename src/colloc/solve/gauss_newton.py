@@ -375,13 +375,23 @@ class _Step:
         return full
 
 
+def _adjoint(b: _Blocks, gradient: np.ndarray) -> np.ndarray:
+    """Defect multipliers ``(N-1, n)`` making every node but the first stationary.
+
+    Solves ``gradient_k + D_k^T lambda_k + E_{k-1}^T lambda_{k-1} = 0`` backwards from the
+    last node (which no later defect touches).
+    """
+    N1, n = b.c.shape
+    lam = np.zeros((N1, n))
+    lam[N1 - 1] = -np.linalg.solve(b.E[N1 - 1].T, gradient[N1])
+    for k in range(N1 - 1, 0, -1):
+        lam[k - 1] = -np.linalg.solve(b.E[k - 1].T, gradient[k] + b.D[k].T @ lam[k])
+    return lam
+
+
 def _multipliers(chain: _Chain, b: _Blocks, m: int) -> np.ndarray:
-    """Defect multipliers (``L = f + lambda^T c``) by the backward adjoint recursion."""
-    N, n = chain.N, chain.n
-    lam = np.zeros((N - 1, n))
-    lam[N - 2] = -np.linalg.solve(b.E[N - 2].T, b.g[N - 1])
-    for k in range(N - 2, 0, -1):
-        lam[k - 1] = -np.linalg.solve(b.E[k - 1].T, b.g[k] + b.D[k].T @ lam[k])
+    """Defect multipliers (``L = f + lambda^T c``) at the final iterate."""
+    lam = _adjoint(b, b.g)
     out = np.zeros(m)
     out[chain.row_order] = lam.ravel()
     return out
@@ -472,7 +482,10 @@ def solve_gauss_newton(
             # force defects are small state corrections)
             c_norm = float(np.abs(blocks.a).sum())
             if c_norm > 0:
-                mu = max(mu, (slope + 0.5 * curvature) / (0.9 * c_norm) + 1e-12)
+                # exact penalty: above the step's multipliers of the state-unit defects
+                lam = _adjoint(blocks, blocks.g + np.einsum("kij,kj->ki", blocks.H, dx))
+                bound = float(np.abs(np.einsum("kji,kj->ki", blocks.E, lam)).max())
+                mu = max(mu, 1.1 * bound, (slope + 0.5 * curvature) / (0.9 * c_norm) + 1e-12)
             merit = f + mu * c_norm
             derivative = slope - mu * c_norm
             predicted = -(slope + 0.5 * curvature)
