@@ -11,50 +11,15 @@ import numpy as np
 import pytest
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
-from test_schedule_engine import (
-    F1,
-    F2,
-    ID_STRIKES,
-    PLANT,
-    closed_toy,
-    excitation,
-    identification_times,
-    phase_from_strikes,
-    q1,
-    q2,
-    simulate,
-    true_schedule,
-    u1,
-    u2,
-)
+from test_schedule_engine import identification_problem, q1
 
-from colloc import GaussNewtonOptions, Problem, ProblemDefinitionError, Tracking
+from colloc import GaussNewtonOptions, ProblemDefinitionError
 from colloc.solve import ChainStructure, solve_gauss_newton
 from colloc.transcription import BackwardEuler, HermiteSimpson, Midpoint
 
 
 def toy_problem(scheme, bounds=None):
-    closed, gs = closed_toy("full")
-    Tstar, K = true_schedule("full")
-    times = identification_times()  # the schedule's kinks are nodes
-    X = simulate(Tstar, K, times)
-    F = excitation(times)
-    problem = Problem(
-        closed,
-        times,
-        scheme=scheme,
-        known_trajectories={
-            gs.phase: phase_from_strikes(times, ID_STRIKES),
-            F1: F[:, 0],
-            F2: F[:, 1],
-        },
-        known_parameters=PLANT,
-        objective=Tracking({q1: X[:, 0], q2: X[:, 1]}),
-        bounds=bounds,
-        cache=False,
-    )
-    rates = {u1: np.gradient(X[:, 0], times), u2: np.gradient(X[:, 1], times)}
-    guess = problem.initial_guess({q1: X[:, 0], q2: X[:, 1], **rates})
+    problem, gs, Tstar, K, _, guess = identification_problem("full", scheme, bounds)
     return problem, gs, Tstar, K, guess
 
 

@@ -580,17 +580,19 @@ def simulate(Tstar, K, times):
     return np.vstack([*pieces, x[None]])
 
 
-@pytest.fixture(scope="module", params=["full", "joint-isolated"])
-def identification(request):
-    closed, gs = closed_toy(request.param)
-    Tstar, K = true_schedule(request.param)
+def identification_problem(structure, scheme, bounds=None):
+    """The toy closed by a schedule of ``structure``, tracking simulated positions on the
+    kink-aligned grid, and a start from the simulated states; returns the problem, the
+    schedule, the true ``T*`` and ``K``, the simulated states and the start."""
+    closed, gs = closed_toy(structure)
+    Tstar, K = true_schedule(structure)
     times = identification_times()
     X = simulate(Tstar, K, times)
     F = excitation(times)
     problem = Problem(
         closed,
         times,
-        scheme=HermiteSimpson(),
+        scheme=scheme,
         known_trajectories={
             gs.phase: phase_from_strikes(times, ID_STRIKES),
             F1: F[:, 0],
@@ -598,12 +600,18 @@ def identification(request):
         },
         known_parameters=PLANT,
         objective=Tracking({q1: X[:, 0], q2: X[:, 1]}),
+        bounds=bounds,
         cache=False,
     )
     guess = problem.initial_guess(
         {q1: X[:, 0], q2: X[:, 1], u1: np.gradient(X[:, 0], times), u2: np.gradient(X[:, 1], times)}
     )
     return problem, gs, Tstar, K, X, guess
+
+
+@pytest.fixture(scope="module", params=["full", "joint-isolated"])
+def identification(request):
+    return identification_problem(request.param, HermiteSimpson())
 
 
 def test_recovers_schedule_from_noise_free_data(identification):

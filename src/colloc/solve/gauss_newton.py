@@ -28,30 +28,15 @@ import time
 import warnings
 from collections.abc import Callable
 from dataclasses import dataclass
-from typing import Any, Protocol
+from typing import Any
 
 import numpy as np
 import scipy.linalg as sla
 
-from colloc.solve.result import SolveResult
+from colloc.solve.result import NLP, SolveResult
 from colloc.solve.status import status_from_code
 
 SUCCEEDED, STALLED, USER_STOP, MAX_ITER, WALL_TIME, INVALID_NUMBER = 0, 3, 5, -1, -5, -13
-
-
-class ChainNLP(Protocol):
-    """What the Gauss-Newton solver needs from an assembled problem."""
-
-    n: int
-    m: int
-
-    def objective(self, z: np.ndarray) -> float: ...  # noqa: D102
-    def gradient(self, z: np.ndarray) -> np.ndarray: ...  # noqa: D102
-    def constraints(self, z: np.ndarray) -> np.ndarray: ...  # noqa: D102
-    def jacobian(self, z: np.ndarray) -> np.ndarray: ...  # noqa: D102
-    def jacobianstructure(self) -> tuple[np.ndarray, np.ndarray]: ...  # noqa: D102
-    def hessian(self, z: np.ndarray, lagrange: np.ndarray, obj_factor: float) -> np.ndarray: ...  # noqa: D102
-    def hessianstructure(self) -> tuple[np.ndarray, np.ndarray]: ...  # noqa: D102
 
 
 @dataclass(frozen=True)
@@ -157,7 +142,7 @@ class _Blocks:
 class _Chain:
     """Index maps from the NLP's sparse triplets to the chain blocks (computed once)."""
 
-    def __init__(self, nlp: ChainNLP, s: ChainStructure) -> None:
+    def __init__(self, nlp: NLP, s: ChainStructure) -> None:
         N, n = s.node_index.shape
         q = s.parameter_index.size
         self.N, self.n, self.q = N, n, q
@@ -226,7 +211,7 @@ class _Chain:
         c_k = c[self.row_order].reshape(self.N - 1, self.n, 1)
         return float(np.abs(np.linalg.solve(b.E, c_k)).sum())
 
-    def blocks(self, nlp: ChainNLP, z: np.ndarray) -> _Blocks:
+    def blocks(self, nlp: NLP, z: np.ndarray) -> _Blocks:
         N, n, q = self.N, self.n, self.q
         jac = nlp.jacobian(z)
         D = np.bincount(self.d_flat, jac[self.d_mask], (N - 1) * n * n).reshape(N - 1, n, n)
@@ -398,7 +383,7 @@ def _multipliers(chain: _Chain, b: _Blocks, m: int) -> np.ndarray:
 
 
 def solve_gauss_newton(
-    nlp: ChainNLP,
+    nlp: NLP,
     x0: np.ndarray,
     structure: ChainStructure,
     options: GaussNewtonOptions | None = None,
@@ -408,7 +393,7 @@ def solve_gauss_newton(
 
     Parameters
     ----------
-    nlp : ChainNLP
+    nlp : NLP
         Objective, gradient, defects, their sparse Jacobian and the objective's Hessian
         (``hessian`` with zero multipliers).
     x0 : ndarray

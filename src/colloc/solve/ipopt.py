@@ -11,11 +11,11 @@ import tempfile
 import time
 from collections.abc import Callable, Mapping
 from pathlib import Path
-from typing import Any, Protocol
+from typing import Any
 
 import numpy as np
 
-from colloc.solve.result import SolveResult
+from colloc.solve.result import NLP, SolveResult
 from colloc.solve.status import status_from_code
 
 HESSIAN_CHOICES = ("exact", "limited-memory", "gauss-newton")
@@ -26,21 +26,6 @@ DEFAULT_OPTIONS: dict[str, Any] = {
     "mu_strategy": "adaptive",
     "linear_solver": "mumps",
 }
-
-
-class NLP(Protocol):
-    """What IPOPT needs from an assembled problem."""
-
-    n: int
-    m: int
-
-    def objective(self, z: np.ndarray) -> float: ...  # noqa: D102
-    def gradient(self, z: np.ndarray) -> np.ndarray: ...  # noqa: D102
-    def constraints(self, z: np.ndarray) -> np.ndarray: ...  # noqa: D102
-    def jacobian(self, z: np.ndarray) -> np.ndarray: ...  # noqa: D102
-    def jacobianstructure(self) -> tuple[np.ndarray, np.ndarray]: ...  # noqa: D102
-    def hessian(self, z: np.ndarray, lagrange: np.ndarray, obj_factor: float) -> np.ndarray: ...  # noqa: D102
-    def hessianstructure(self) -> tuple[np.ndarray, np.ndarray]: ...  # noqa: D102
 
 
 class _Callbacks:

@@ -1,13 +1,28 @@
-"""What a solver returns: the iterate, its status, multipliers, history and log."""
+"""What a solver takes (the NLP's callbacks) and returns (iterate, status, history, log)."""
 
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, Protocol
 
 import numpy as np
 
 from colloc.solve.status import SolveStatus
+
+
+class NLP(Protocol):
+    """The callbacks of an assembled problem: values, sparse derivatives and their patterns."""
+
+    n: int
+    m: int
+
+    def objective(self, z: np.ndarray) -> float: ...  # noqa: D102
+    def gradient(self, z: np.ndarray) -> np.ndarray: ...  # noqa: D102
+    def constraints(self, z: np.ndarray) -> np.ndarray: ...  # noqa: D102
+    def jacobian(self, z: np.ndarray) -> np.ndarray: ...  # noqa: D102
+    def jacobianstructure(self) -> tuple[np.ndarray, np.ndarray]: ...  # noqa: D102
+    def hessian(self, z: np.ndarray, lagrange: np.ndarray, obj_factor: float) -> np.ndarray: ...  # noqa: D102
+    def hessianstructure(self) -> tuple[np.ndarray, np.ndarray]: ...  # noqa: D102
 
 
 @dataclass
