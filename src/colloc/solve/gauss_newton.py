@@ -467,10 +467,7 @@ def solve_gauss_newton(
             # force defects are small state corrections)
             c_norm = float(np.abs(blocks.a).sum())
             if c_norm > 0:
-                # exact penalty: above the step's multipliers of the state-unit defects
-                lam = _adjoint(blocks, blocks.g + np.einsum("kij,kj->ki", blocks.H, dx))
-                bound = float(np.abs(np.einsum("kji,kj->ki", blocks.E, lam)).max())
-                mu = max(mu, 1.1 * bound, (slope + 0.5 * curvature) / (0.9 * c_norm) + 1e-12)
+                mu = max(mu, (slope + 0.5 * curvature) / (0.9 * c_norm) + 1e-12)
             merit = f + mu * c_norm
             derivative = slope - mu * c_norm
             predicted = -(slope + 0.5 * curvature)
