@@ -15,7 +15,9 @@ start, IPOPT iterations and status, seconds in the linear solver vs in function 
 the trial's true controller.
 
 Starts: ``truth`` (true controller), ``truth+20%`` (each parameter times 1 + U(-0.2, 0.2),
-seeded), states from the measured columns (angles, positions and their rates as recorded).
+seeded), states from the measured columns (angles, positions and their rates as recorded), or
+with ``--smooth SECONDS`` the measured positions smoothed (Savitzky-Golay, cubic, that window)
+with their derivatives as the rates.
 ``--fixed-first`` solves the tracking problem with the start's controller held fixed (no
 unknown parameters: a banded KKT system) and starts the identification from its states.
 ``--residual-forces SIGMA_JOINT,SIGMA_ROOT`` adds a disturbance generalized force to each of
@@ -54,6 +56,7 @@ from colloc.data.columns import (
 from colloc.gait.metadata import STATE_SIGNAL_NAMES, controller_from_metadata
 from colloc.gait.orbit import GaitDynamics
 from colloc.gait.trials import DEFAULT_NOISE_STD
+from colloc.identify.direct import smooth_with_derivatives
 from colloc.model.symbols import name_of
 from colloc.models.gait2d_params import load_parameters
 from colloc.solve.ipopt import HESSIAN_CHOICES
@@ -115,6 +118,9 @@ def main() -> None:
         "--option", action="append", default=[], metavar="KEY=VALUE", help="IPOPT option"
     )
     parser.add_argument("--residual-forces", default=None, metavar="SIGMA_JOINT,SIGMA_ROOT")
+    parser.add_argument(
+        "--smooth", type=float, default=None, metavar="SECONDS", help="Savitzky-Golay start"
+    )
     parser.add_argument("--friction-velocity", type=float, default=None, help="v_s [m/s]")
     parser.add_argument("--log", type=Path, default=None, help="keep IPOPT's log here")
     parser.add_argument("--out", type=Path, default=RESULTS)
@@ -162,6 +168,12 @@ def main() -> None:
         else {p: v * (1 + rng.uniform(-0.2, 0.2)) for p, v in truth.items()}
     )
     states = {x: signals[c].to_numpy() for x, c in zip(model.states, STATE_COLUMNS, strict=True)}
+    if args.smooth is not None:
+        # a start on smooth positions with their own derivatives as the rates
+        raw = np.column_stack([measured[q] for q in coordinates])
+        position, rate, _ = smooth_with_derivatives(t, raw, args.smooth)
+        states = {q: position[:, j] for j, q in enumerate(coordinates)}
+        states.update({u: rate[:, j] for j, u in enumerate(model.states[9:])})
     scheme = SCHEMES[args.scheme]()
     options = {"max_iter": args.max_iter, "print_timing_statistics": "yes", "tol": 1e-6}
     if args.pivot_order is not None:
@@ -178,6 +190,7 @@ def main() -> None:
         "scheme": args.scheme,
         "start": args.start,
         "fixed_first": args.fixed_first,
+        "smooth_seconds": args.smooth,
         "hessian": args.hessian,
         "solver": args.solver,
         "ipopt_options": options,
