@@ -42,7 +42,9 @@ import time
 from pathlib import Path
 
 import numpy as np
+import pandas as pd
 from results_file import append_record
+from scipy.interpolate import CubicSpline
 from sympy.physics.mechanics import dynamicsymbols
 
 from colloc import GainScheduled, GaussNewtonOptions, IntegralCost, Problem, Tracking
@@ -121,6 +123,9 @@ def main() -> None:
     parser.add_argument(
         "--smooth", type=float, default=None, metavar="SECONDS", help="Savitzky-Golay start"
     )
+    parser.add_argument(
+        "--nodes-per-sample", type=int, default=1, help="collocation nodes per sample interval"
+    )
     parser.add_argument("--friction-velocity", type=float, default=None, help="v_s [m/s]")
     parser.add_argument("--log", type=Path, default=None, help="keep IPOPT's log here")
     parser.add_argument("--out", type=Path, default=RESULTS)
@@ -143,6 +148,16 @@ def main() -> None:
         trial.time <= args.start_time + args.fit + 1e-9
     )
     t, signals = trial.time[window], trial.signals[window]
+    if args.nodes_per_sample > 1:
+        # a finer grid than the samples: every column interpolated onto it (cubic splines;
+        # the phase linearly, it has kinks at heel strikes), tracking weights spread over it
+        fine = np.linspace(t[0], t[-1], (t.size - 1) * args.nodes_per_sample + 1)
+        spline = CubicSpline(t, signals.to_numpy(), axis=0)(fine)
+        signals = pd.DataFrame(spline, columns=signals.columns)
+        signals["controller_phase"] = np.interp(
+            fine, t, trial.signals["controller_phase"].to_numpy()[window]
+        )
+        t = fine
     N = t.size
     known = {
         gait.belt_speed: signals["belt_speed"].to_numpy(),
@@ -191,6 +206,7 @@ def main() -> None:
         "start": args.start,
         "fixed_first": args.fixed_first,
         "smooth_seconds": args.smooth,
+        "nodes_per_sample": args.nodes_per_sample,
         "hessian": args.hessian,
         "solver": args.solver,
         "ipopt_options": options,
