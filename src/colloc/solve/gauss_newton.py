@@ -271,6 +271,71 @@ def _segments(N: int, length: int) -> list[tuple[int, int]]:
     return list(zip(starts, ends, strict=True))
 
 
+class _Links:
+    """The linearized defects joining segment ``s`` to ``s + 1``:
+    ``C_s dy_s + E_s dy_{s+1} + G_s dtheta = r_s``."""
+
+    def __init__(self, count: int, n: int, q: int) -> None:
+        self.C = np.zeros((count, n, n))
+        self.E = np.zeros((count, n, n))
+        self.G = np.zeros((count, n, q + 1))
+        self.r = np.zeros((count, n))
+
+
+def _solve_bordered(
+    H_loc: np.ndarray,
+    H_cross: np.ndarray,
+    H_theta: np.ndarray,
+    g_loc: np.ndarray,
+    g_theta: np.ndarray,
+    links: _Links,
+) -> tuple[np.ndarray, np.ndarray]:
+    """The reduced KKT system, banded in the segments and bordered by the parameters.
+
+    Unknowns ``[dy_0, nu_0, dy_1, nu_1, ..., dy_{S-1}]`` (segment first states and link
+    multipliers) form a banded matrix ``M`` (bandwidth ``2n - 1``); the parameters are
+    eliminated by their Schur complement ``H_theta - F^T M^{-1} F``, so the cost is
+    ``O(S n^2 q + q^3)`` instead of a dense solve of ``(2S - 1) n + q`` unknowns.
+    """
+    S, n, _ = H_loc.shape
+    q = H_theta.shape[0]
+    size = (2 * S - 1) * n
+    bw = 2 * n - 1
+    ab = np.zeros((2 * bw + 1, size))
+    F = np.zeros((size, q))
+    rhs = np.zeros(size)
+    i_loc, j_loc = np.meshgrid(np.arange(n), np.arange(n), indexing="ij")
+
+    def place(row: int, col: int, block: np.ndarray) -> None:
+        rows, cols = row + i_loc, col + j_loc
+        ab[bw + rows - cols, cols] = block
+
+    for s in range(S):
+        y = 2 * s * n
+        place(y, y, H_loc[s])
+        F[y : y + n] = H_cross[s]
+        rhs[y : y + n] = -g_loc[s]
+        if s < S - 1:
+            nu = y + n
+            place(nu, y, links.C[s])
+            place(y, nu, links.C[s].T)
+            place(nu, nu + n, links.E[s])
+            place(nu + n, nu, links.E[s].T)
+            F[nu : nu + n] = links.G[s][:, :q]
+            rhs[nu : nu + n] = links.r[s]
+    with warnings.catch_warnings():
+        # poorly determined parameters make these systems ill-conditioned; the damping
+        # keeps them solvable and the line search judges the step
+        warnings.simplefilter("ignore", sla.LinAlgWarning)
+        solved = sla.solve_banded((bw, bw), ab, np.column_stack([F, rhs]), check_finite=False)
+        schur = H_theta - F.T @ solved[:, :q]
+        schur = 0.5 * (schur + schur.T)
+        dtheta = sla.solve(schur, -g_theta - F.T @ solved[:, q], assume_a="sym")
+    local = solved[:, q] - solved[:, :q] @ dtheta
+    dy = np.stack([local[2 * s * n : (2 * s + 1) * n] for s in range(S)])
+    return dy, dtheta
+
+
 class _Step:
     """Condense, solve the reduced system, expand: one Gauss-Newton step."""
 
@@ -283,12 +348,12 @@ class _Step:
         w, V = np.linalg.eigh(b.H)
         keep = w > 1e-14 * max(float(w.max(initial=0.0)), 1e-300)
         factor = V * np.sqrt(np.maximum(w, 0.0))[:, None, :]  # H_k = F_k F_k^T
-        size = S * n + q
-        H_r = np.zeros((size, size))
-        g_r = np.zeros(size)
-        H_r[S * n :, S * n :] += b.H_theta
-        g_r[S * n :] += b.g_theta
-        link_rows = []
+        H_loc = np.zeros((S, n, n))
+        H_cross = np.zeros((S, n, q + 1))
+        H_theta = b.H_theta.copy()
+        g_loc = np.zeros((S, n))
+        g_theta = np.r_[b.g_theta, 0.0]
+        links = _Links(S - 1, n, q)
         for s, (first, last) in enumerate(self.segments):
             X = np.zeros((n, n + q + 1))  # the last column absorbs padding
             X[:, :n] = np.eye(n)
@@ -309,38 +374,29 @@ class _Step:
             if time.perf_counter() > deadline:
                 raise _WallTime
             used = np.flatnonzero(active[:q])
-            local = np.r_[np.arange(n), n + used]
-            index = np.r_[np.arange(s * n, (s + 1) * n), S * n + used]
             if rows:
-                R = np.vstack(rows)[:, local]
+                R = np.vstack(rows)[:, np.r_[np.arange(n), n + used]]
                 G = sla.blas.dsyrk(1.0, R, trans=1)
                 G = np.triu(G) + np.triu(G, 1).T
-                H_r[np.ix_(index, index)] += G
-            g_r[index] += grad[local]
+                H_loc[s] += G[:n, :n]
+                H_cross[s][:, used] += G[:n, n:]
+                H_theta[np.ix_(used, used)] += G[n:, n:]
+            g_loc[s] += grad[:n]
+            g_theta[:q] += grad[n : n + q]
             if last < ch.N - 1:
                 k = last
-                row = np.zeros((n, size + 1))
-                row[:, s * n : (s + 1) * n] = b.D[k] @ X[:, :n]
-                row[:, S * n :] = b.D[k] @ X[:, n:]
-                row[:, S * n + ch.columns[k]] += b.T[k]
-                row[:, (s + 1) * n : (s + 2) * n] = b.E[k]
-                link_rows.append((row[:, :size], -b.c[k] - b.D[k] @ d))
-        diag = np.diag(H_r).copy()
-        floor = 1e-8 * max(float(diag.max(initial=0.0)), 1.0)
-        H_d = H_r + damping * np.diag(np.maximum(diag, floor))
-        if link_rows:
-            B = np.vstack([r for r, _ in link_rows])
-            rhs_c = np.concatenate([v for _, v in link_rows])
-            m_c = B.shape[0]
-            K = np.block([[H_d, B.T], [B, np.zeros((m_c, m_c))]])
-            rhs = np.r_[-g_r, rhs_c]
-        else:
-            K, rhs = H_d, -g_r
-        with warnings.catch_warnings():
-            # poorly determined parameters make the reduced system ill-conditioned; the
-            # damping keeps it solvable and the line search judges the step
-            warnings.simplefilter("ignore", sla.LinAlgWarning)
-            dp = sla.solve(K, rhs, assume_a="sym")[:size]
+                links.C[s] = b.D[k] @ X[:, :n]
+                links.G[s] = b.D[k] @ X[:, n:]
+                links.G[s][:, ch.columns[k]] += b.T[k]
+                links.E[s] = b.E[k]
+                links.r[s] = -b.c[k] - b.D[k] @ d
+        diagonals = np.r_[np.einsum("sii->si", H_loc).ravel(), np.diag(H_theta)]
+        floor = 1e-8 * max(float(diagonals.max(initial=0.0)), 1.0)
+        idx = np.arange(n)
+        H_loc[:, idx, idx] += damping * np.maximum(H_loc[:, idx, idx], floor)
+        H_theta[np.diag_indices(q)] += damping * np.maximum(np.diag(H_theta), floor)
+        dy, dtheta = _solve_bordered(H_loc, H_cross[:, :, :q], H_theta, g_loc, g_theta[:q], links)
+        dp = np.r_[dy.ravel(), dtheta]
         return dp, self.expand(b, dp)
 
     def expand(self, b: _Blocks, dp: np.ndarray) -> np.ndarray:
