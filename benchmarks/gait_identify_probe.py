@@ -279,7 +279,7 @@ def main() -> None:
             max_wall_time=float(options.get("max_wall_time", float("inf"))),
         )
         solution = problem.solve_gauss_newton(z0, gn)
-        record["gauss_newton"] = {k: v for k, v in solution.stats["ipopt_options"].items()}
+        record["gauss_newton"] = dict(solution.stats["ipopt_options"])
         if args.log:
             args.log.write_text(solution.stats["ipopt_log"])
     else:

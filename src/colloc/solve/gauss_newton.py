@@ -133,9 +133,12 @@ class _Blocks:
     A: np.ndarray  # (N-1, n, n) -E_k^{-1} D_k
     B: np.ndarray  # (N-1, n, width) -E_k^{-1} T_k
     a: np.ndarray  # (N-1, n) -E_k^{-1} c_k
-    g: np.ndarray  # (N, n) objective gradient by node
-    g_theta: np.ndarray  # (q,)
+    gradient: np.ndarray  # (num_variables,) objective gradient
+    g: np.ndarray  # (N, n) its node parts
+    g_theta: np.ndarray  # (q,) its parameter part
     H: np.ndarray  # (N, n, n) objective Hessian by node (PSD part)
+    factor: np.ndarray  # (N, n, n) H_k = factor_k factor_k^T
+    rank: np.ndarray  # (N, n) bool: the columns of factor_k that are not zero
     H_theta: np.ndarray  # (q, q)
 
 
@@ -233,7 +236,7 @@ class _Chain:
         np.add.at(H, self.h_flat, v)
         off = self.h_flat != self.h_flat_t
         np.add.at(H, self.h_flat_t[off], v[off])
-        H = _positive_part(H.reshape(N, n, n))
+        H, factor, rank = _positive_part(H.reshape(N, n, n))
         vt = hess[self.h_theta]
         H_theta = np.zeros((q, q))
         np.add.at(H_theta, (self.ht_r, self.ht_c), vt)
@@ -247,19 +250,25 @@ class _Chain:
             propagated[:, :, :n],
             propagated[:, :, n : n + w],
             propagated[:, :, -1],
+            grad,
             grad[self.node_index],
             grad[self.parameter_index],
             H,
+            factor,
+            rank,
             H_theta,
         )
 
 
-def _positive_part(H: np.ndarray) -> np.ndarray:
-    """Each symmetric block with its negative eigenvalues set to zero (Gauss-Newton)."""
+def _positive_part(H: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Each symmetric block with its negative eigenvalues set to zero (Gauss-Newton), its
+    factor ``F_k`` with ``H_k = F_k F_k^T`` and which of the factor's columns are nonzero."""
     w, V = np.linalg.eigh(H)
-    if (w >= 0).all():
-        return H
-    return np.einsum("kij,kj,klj->kil", V, np.maximum(w, 0.0), V)
+    if (w < 0).any():
+        w = np.maximum(w, 0.0)
+        H = np.einsum("kij,kj,klj->kil", V, w, V)
+    rank = w > 1e-14 * max(float(w.max(initial=0.0)), 1e-300)
+    return H, V * np.sqrt(w)[:, None, :], rank
 
 
 def _segments(N: int, length: int) -> list[tuple[int, int]]:
@@ -342,12 +351,10 @@ class _Step:
     def __init__(self, chain: _Chain, segments: list[tuple[int, int]]) -> None:
         self.chain, self.segments = chain, segments
 
-    def compute(self, b: _Blocks, damping: float, deadline: float) -> tuple[np.ndarray, np.ndarray]:
+    def compute(self, b: _Blocks, damping: float, deadline: float) -> np.ndarray:
+        """The full step ``dz`` (damping on the reduced Hessian's diagonal)."""
         ch = self.chain
         n, q, S = ch.n, ch.q, len(self.segments)
-        w, V = np.linalg.eigh(b.H)
-        keep = w > 1e-14 * max(float(w.max(initial=0.0)), 1e-300)
-        factor = V * np.sqrt(np.maximum(w, 0.0))[:, None, :]  # H_k = F_k F_k^T
         H_loc = np.zeros((S, n, n))
         H_cross = np.zeros((S, n, q + 1))
         H_theta = b.H_theta.copy()
@@ -362,8 +369,8 @@ class _Step:
             rows = []
             grad = np.zeros(n + q + 1)
             for k in range(first, last + 1):
-                if keep[k].any():
-                    rows.append(factor[k][:, keep[k]].T @ X)
+                if b.rank[k].any():
+                    rows.append(b.factor[k][:, b.rank[k]].T @ X)
                     grad += X.T @ (b.g[k] + b.H[k] @ d)
                 if k < last:
                     cols = ch.columns[k]
@@ -396,8 +403,7 @@ class _Step:
         H_loc[:, idx, idx] += damping * np.maximum(H_loc[:, idx, idx], floor)
         H_theta[np.diag_indices(q)] += damping * np.maximum(np.diag(H_theta), floor)
         dy, dtheta = _solve_bordered(H_loc, H_cross[:, :, :q], H_theta, g_loc, g_theta[:q], links)
-        dp = np.r_[dy.ravel(), dtheta]
-        return dp, self.expand(b, dp)
+        return self.expand(b, np.r_[dy.ravel(), dtheta])
 
     def expand(self, b: _Blocks, dp: np.ndarray) -> np.ndarray:
         """The full step: states propagated through every segment from its first state."""
@@ -509,15 +515,14 @@ def solve_gauss_newton(
             timing["evaluations"] += t1 - t0
             if it == opts.max_iter:
                 break
-            dp, dz = stepper.compute(blocks, damping, deadline)
+            dz = stepper.compute(blocks, damping, deadline)
             t2 = time.perf_counter()
             timing["condensing"] += t2 - t1
-            g = nlp.gradient(z)
             dx = dz[chain.node_index]
             curvature = float(np.einsum("ki,kij,kj->", dx, blocks.H, dx))
             dth = dz[chain.parameter_index]
             curvature += float(dth @ blocks.H_theta @ dth)
-            slope = float(g @ dz)
+            slope = float(blocks.gradient @ dz)
             # defects in state units, E_k^{-1} c_k with E_k frozen at this iterate: how far
             # each next state is from where the dynamics put it (a stiff contact's large
             # force defects are small state corrections)
