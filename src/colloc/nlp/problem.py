@@ -297,8 +297,9 @@ class Problem:
         ----------
         initial_guess : ndarray
             Free vector (see :meth:`initial_guess`).
-        hessian : {"exact", "limited-memory"}
-            Exact Hessian by AD (default) or IPOPT's L-BFGS approximation.
+        hessian : {"exact", "limited-memory", "gauss-newton"}
+            Exact Hessian by AD (default), IPOPT's L-BFGS approximation, or the objective's
+            Hessian only (the constraints' curvature left out).
         progress : callable, optional
             Called after each iteration with ``iteration``, ``objective``,
             ``infeasibility`` (primal), ``dual_infeasibility``.

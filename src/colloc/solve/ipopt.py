@@ -98,7 +98,8 @@ def solve_nlp(
     ----------
     nlp : NLP
     x0, lower, upper : ndarray
-    hessian : {"exact", "limited-memory"}
+    hessian : {"exact", "limited-memory", "gauss-newton"}
+        ``"gauss-newton"`` passes IPOPT the objective's Hessian only (zero multipliers).
     progress : callable, optional
         Called after every iteration; returning ``False`` stops the solve.
     log_path : path, optional
