@@ -115,8 +115,9 @@ def spring(**kwargs):
         (
             [q.diff(t) - u, u.diff(t) + q + r],
             [q, u],
-            {"outputs": {w: q + r}, "known_inputs": [r]},
-            r"output w depends on \['r'\], which are not states; outputs are y = g\(x, t\)",
+            {"outputs": {w: q + r + dynamicsymbols("v")}, "known_inputs": [r]},
+            r"output w depends on \['v'\], which are neither states nor inputs; "
+            r"outputs are y = g\(x, r, t\)",
         ),
         (
             [q.diff(t) - u, u.diff(t) + q],
@@ -140,7 +141,7 @@ def spring(**kwargs):
         "parameter-is-state",
         "missing-parameter",
         "output-not-expression",
-        "output-not-of-states",
+        "output-not-of-states-or-inputs",
         "output-with-derivative",
     ],
 )
@@ -271,6 +272,19 @@ def test_close_loop_substitutes_the_feedback_law():
     assert closed.controlled_inputs == ()
     assert closed.controller_parameters == (g1, g2)
     assert set(closed.parameters) == {c, k, m, g1, g2}
+
+
+def test_close_loop_puts_the_law_into_outputs_on_the_driven_input():
+    g1, g2 = sm.symbols("g1 g2")
+    model = spring(outputs={q: q, w: 2 * r})  # a measured input, e.g. a joint torque
+    closed = model.close_loop(StateFeedback([[g1, g2]], x_eq=[0.5, 0]))
+    assert sm.expand(closed.outputs[w] - 2 * (g1 * (0.5 - q) - g2 * u)) == 0
+    assert closed.outputs[q] == q
+    # an input that stays an input keeps its output as it was
+    kept = Model.from_equations(
+        spring_residual(), [q, u], known_inputs=[r], outputs={w: r}
+    ).with_outputs({w: r, q: q})
+    assert kept.outputs[w] == r
 
 
 # --------------------------------------------------------------------------- StateFeedback

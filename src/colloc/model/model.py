@@ -2,7 +2,7 @@
 
 A :class:`Model` is the implicit first-order system ``F(x', x, r, p, t) = 0`` with named
 states ``x``, inputs ``r`` (controlled, known exogenous, unknown exogenous), constant
-parameters ``p`` and measured outputs ``y = g(x, t)``. Mechanical systems stay implicit
+parameters ``p`` and measured outputs ``y = g(x, r, t)``. Mechanical systems stay implicit
 (``M(q) u' - f = 0``): the mass matrix is never inverted.
 """
 
@@ -40,7 +40,7 @@ class Controller(Protocol):
 
 @dataclass(frozen=True)
 class Model:
-    """Implicit dynamic model ``F(x', x, r, p, t) = 0`` with outputs ``y = g(x, t)``.
+    """Implicit dynamic model ``F(x', x, r, p, t) = 0`` with outputs ``y = g(x, r, t)``.
 
     Build one with :meth:`from_kane`, :meth:`from_lagrange` or :meth:`from_equations`
     rather than directly; those validate the definition and report every problem at once.
@@ -56,7 +56,8 @@ class Model:
     parameters : tuple
         Constant symbols ``p`` of the model, sorted by name.
     outputs : dict
-        Output symbol -> expression ``g(x, t)``.
+        Output symbol -> expression ``g(x, r, t)`` (after :meth:`close_loop`, a controlled
+        input in an output is the controller's law, so the output may hold its parameters).
     controller_parameters : tuple
         The subset of ``parameters`` introduced by :meth:`close_loop`.
     schedules : tuple of ParameterSchedule
@@ -132,8 +133,9 @@ class Model:
         controlled_inputs, known_inputs, unknown_inputs : sequence of functions of time
             Every other function of time in the residual must be listed in exactly one.
         outputs : mapping or sequence, optional
-            Measured outputs ``y = g(x, t)``: a mapping output symbol -> expression, or a
-            sequence of states that are measured directly. Default: every state.
+            Measured outputs ``y = g(x, r, t)``: a mapping output symbol -> expression, or a
+            sequence of states or inputs that are measured directly (e.g. joint torques
+            from inverse dynamics). Default: every state.
         parameters : sequence of sympy.Symbol, optional
             The constants. If given, any other constant in the residual is reported as
             unknown; if omitted, every free symbol other than ``t`` is a parameter.
@@ -293,6 +295,7 @@ class Model:
         -------
         Model
             The closed-loop model; controlled inputs the controller does not drive remain.
+            Outputs that hold a driven input now hold the controller's law in its place.
         """
         law = dict(controller.control_law(self))
         problems = [
@@ -307,6 +310,7 @@ class Model:
         ]
         raise_if_any(problems)
         residual = self.residual.xreplace(law)
+        outputs = {y: g.xreplace(law) for y, g in self.outputs.items()}
         remaining = tuple(r for r in self.controlled_inputs if r not in law)
         schedules = tuple(getattr(controller, "schedules", ()))
         phases = tuple(dict.fromkeys(s.phase for s in schedules if s.phase not in self.inputs))
@@ -314,6 +318,7 @@ class Model:
         return replace(
             self,
             residual=residual,
+            outputs=outputs,
             controlled_inputs=remaining,
             known_inputs=self.known_inputs + phases,
             parameters=new_params,  # type: ignore[arg-type]
@@ -391,9 +396,26 @@ class Model:
         )
 
     def with_outputs(self, outputs: Mapping[sm.Basic, sm.Expr] | Sequence[sm.Basic]) -> Model:
-        """Return a copy with other measured outputs (validated like the constructors)."""
+        """Return a copy with other measured outputs (validated like the constructors).
+
+        Parameters
+        ----------
+        outputs : mapping or sequence
+            Output symbol -> expression ``g(x, r, t)`` in the states and inputs, or a
+            sequence of states or inputs measured directly.
+
+        Returns
+        -------
+        Model
+
+        Raises
+        ------
+        ModelError
+            Naming every output that depends on something other than the states, the inputs
+            and ``t``, holds a derivative or is not an expression.
+        """
         out = dict(outputs) if isinstance(outputs, Mapping) else {y: y for y in as_tuple(outputs)}
-        raise_if_any(output_problems(out, self.states, self.t))
+        raise_if_any(output_problems(out, self.states, self.t, self.inputs))
         return replace(self, outputs=out)
 
     def describe(self) -> dict[str, Any]:

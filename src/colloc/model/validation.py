@@ -117,23 +117,27 @@ def validate_model(
                 f"{sorted(str(m) for m in missing)}"
             )
 
-    problems += output_problems(outputs, states, t)
+    problems += output_problems(outputs, states, t, controlled + known + unknown)
     return problems, constants
 
 
 def output_problems(
-    outputs: Mapping[sm.Basic, sm.Expr], states: tuple[sm.Basic, ...], t: sm.Symbol
+    outputs: Mapping[sm.Basic, sm.Expr],
+    states: tuple[sm.Basic, ...],
+    t: sm.Symbol,
+    inputs: tuple[sm.Basic, ...] = (),
 ) -> list[str]:
-    """Problems with measured outputs ``y = g(x, t)``."""
+    """Problems with measured outputs ``y = g(x, r, t)``."""
     problems: list[str] = []
+    allowed = set(states) | set(inputs)
     for y, g in outputs.items():
-        extra = functions_of_time(g, t) - set(states) if isinstance(g, sm.Basic) else set()
+        extra = functions_of_time(g, t) - allowed if isinstance(g, sm.Basic) else set()
         if not isinstance(g, sm.Basic):
             problems.append(f"output {name_of(y)}: expected a SymPy expression, found {g!r}")
         elif extra:
             problems.append(
                 f"output {name_of(y)} depends on {sorted(name_of(e) for e in extra)}, "
-                "which are not states; outputs are y = g(x, t)"
+                "which are neither states nor inputs; outputs are y = g(x, r, t)"
             )
         elif derivatives_in(g):
             problems.append(f"output {name_of(y)}: derivatives are not allowed in outputs")
