@@ -7,7 +7,7 @@ from colloc.model import Model, ModelError, ProblemDefinitionError
 from colloc.model.linearize import linearize
 from colloc.model.state_space import StateSpace
 from colloc.nlp import IntegralCost, Problem, Solution, TerminalCost, Tracking
-from colloc.nlp.uncertainty import ParameterUncertainty, parameter_uncertainty
+from colloc.nlp.uncertainty import ParameterUncertainty, cramer_rao_bound, parameter_uncertainty
 from colloc.solve.gauss_newton import GaussNewtonOptions
 
 __version__ = "0.1.0"
@@ -22,6 +22,7 @@ __all__ = [
     "linearize",
     "lqr",
     "parameter_uncertainty",
+    "cramer_rao_bound",
     "Model",
     "ModelError",
     "Problem",

@@ -6,6 +6,8 @@
   outputs to the gains and the initial state taken by central differences of an ODE
   simulation (SciPy's integrator, not the collocation problem).
 * The analytic Gauss-Newton covariance of an exponential decay.
+* The Cramer-Rao bound at the truth (``cramer_rao_bound``) against the same spread over
+  noise realisations, and against the analytic bound of the exponential decay.
 * Every error path.
 """
 
@@ -18,7 +20,16 @@ import pytest
 import sympy as sm
 from sympy.physics.mechanics import dynamicsymbols
 
-from colloc import Model, Problem, StateFeedback, Tracking, linearize, lqr, parameter_uncertainty
+from colloc import (
+    Model,
+    Problem,
+    StateFeedback,
+    Tracking,
+    cramer_rao_bound,
+    linearize,
+    lqr,
+    parameter_uncertainty,
+)
 from colloc.identify import smooth_with_derivatives
 from colloc.models import pendulum_cart
 from colloc.simulate import ImplicitODE, SumOfSines
@@ -114,7 +125,16 @@ def study() -> Study:
     )
 
 
-def test_standard_errors_match_spread_over_noise_realisations(study):
+@dataclass
+class Realisations:
+    estimates: np.ndarray  # (NUM_REALISATIONS, 4)
+    std_errors: np.ndarray  # (NUM_REALISATIONS, 4)
+    variances: np.ndarray  # (NUM_REALISATIONS,)
+
+
+@pytest.fixture(scope="module")
+def realisations(study) -> Realisations:
+    """The gains identified from NUM_REALISATIONS noisy copies of the study's data."""
     estimates, std_errors, variances = [], [], []
     for seed in range(NUM_REALISATIONS):
         measured = study.noisy(1000 + seed)
@@ -124,7 +144,12 @@ def test_standard_errors_match_spread_over_noise_realisations(study):
         std_errors.append([unc.standard_errors[k] for k in study.gains])
         variances.append(unc.noise_variance)
         assert unc.degrees_of_freedom == measured.size - 8  # 4 gains + 4 initial states free
-    estimates, std_errors = np.array(estimates), np.array(std_errors)
+    return Realisations(np.array(estimates), np.array(std_errors), np.array(variances))
+
+
+def test_standard_errors_match_spread_over_noise_realisations(study, realisations):
+    estimates, std_errors = realisations.estimates, realisations.std_errors
+    variances = realisations.variances
     spread = estimates.std(axis=0, ddof=1)
     reported = std_errors.mean(axis=0)
     ratio = spread / reported
@@ -136,6 +161,25 @@ def test_standard_errors_match_spread_over_noise_realisations(study):
     noise_free = np.array([clean.parameters[k] for k in study.gains])
     standard_error_of_mean = spread / np.sqrt(NUM_REALISATIONS)
     assert np.all(np.abs(estimates.mean(axis=0) - noise_free) < 4 * standard_error_of_mean)
+
+
+def test_cramer_rao_bound_at_the_truth_matches_the_spread(study, realisations):
+    # the bound is computed before any fit, from the true states and gains and the noise
+    # actually drawn; the efficient estimator's spread over the realisations must meet it
+    study.problem.replace_data(objective=study.tracking(study.true_states[:, :2]))
+    z = study.problem.initial_guess(
+        dict(zip(study.closed.states, study.true_states.T, strict=True)),
+        dict(zip(study.gains, study.known, strict=True)),
+    )
+    bound = cramer_rao_bound(study.problem, z, noise_variance=SIGMA**2)
+    assert bound.degrees_of_freedom is None
+    assert bound.noise_variance == SIGMA**2
+    spread = realisations.estimates.std(axis=0, ddof=1)
+    ratio = spread / np.array([bound.standard_errors[k] for k in study.gains])
+    assert np.all(ratio < SPREAD_FACTOR) and np.all(ratio > 1 / SPREAD_FACTOR), ratio
+    np.testing.assert_allclose(
+        np.sqrt(np.diag(bound.covariance)), list(bound.standard_errors.values())
+    )
 
 
 def test_standard_errors_match_gauss_newton_of_the_ode(study):
@@ -188,6 +232,26 @@ def test_scalar_decay_against_analytic_gauss_newton():
     )
     expected = np.sqrt(unc.noise_variance * np.linalg.inv(S.T @ S)[0, 0])
     assert unc.standard_errors[a] == pytest.approx(expected, rel=0.02)
+    # the bound at the truth, from the true sensitivities and the true sigma
+    truth = problem.initial_guess({x: clean}, {a: a_true})
+    bound = cramer_rao_bound(problem, truth, noise_variance=sigma**2)
+    S_true = np.column_stack(
+        [-times * x0_true * np.exp(-a_true * times), np.exp(-a_true * times)],
+    )
+    analytic = sigma * np.sqrt(np.linalg.inv(S_true.T @ S_true)[0, 0])
+    assert bound.standard_errors[a] == pytest.approx(analytic, rel=0.02)
+
+
+def test_cramer_rao_bound_rejects_bad_arguments(study):
+    z = study.problem.initial_guess(
+        dict(zip(study.closed.states, study.true_states.T, strict=True)),
+        dict(zip(study.gains, study.known, strict=True)),
+    )
+    with pytest.raises(ValueError, match=r"z: expected shape \(\d+,\), found \(3,\)"):
+        cramer_rao_bound(study.problem, np.zeros(3))
+    for bad in (0.0, -1.0, float("nan")):
+        with pytest.raises(ValueError, match="noise_variance: expected a number > 0"):
+            cramer_rao_bound(study.problem, z, noise_variance=bad)
 
 
 # ----------------------------------------------------------------------------- error paths
@@ -207,6 +271,8 @@ def test_no_unknown_parameters_is_an_error(study):
     solution = fixed.solve(fixed.initial_guess(guess))
     with pytest.raises(ValueError, match="problem: has no unknown parameters"):
         parameter_uncertainty(fixed, solution, measured.size)
+    with pytest.raises(ValueError, match="problem: has no unknown parameters"):
+        cramer_rao_bound(fixed, solution.z)
 
 
 def test_too_few_measurements_is_an_error(study):
@@ -243,6 +309,9 @@ def test_parameter_without_effect_on_the_data_is_unidentifiable():
     assert solution.success
     with pytest.raises(ValueError, match="reduced Hessian .* singular.*cannot be identified"):
         parameter_uncertainty(problem, solution, 2 * times.size)
+    # a planned experiment with the zero input says so before any fit
+    with pytest.raises(ValueError, match="reduced Hessian .* singular.*cannot be identified"):
+        cramer_rao_bound(problem, solution.z, noise_variance=1e-4)
 
 
 def test_state_not_seen_by_the_data_makes_the_kkt_matrix_singular():

@@ -8,6 +8,11 @@ as ``J* / (num_measurements - num_free)`` where ``num_free = n_z - m`` counts th
 parameters and the initial states the constraints leave free. With ``H`` the exact
 Hessian this is the reduced-Hessian covariance, which equals Gauss-Newton's for linear
 outputs and vanishing multipliers.
+
+Before any data are fitted, :func:`cramer_rao_bound` gives the same covariance at a chosen
+point (the truth of a synthetic study) with the measurement noise given rather than
+estimated: the smallest covariance any unbiased estimate from such data can have, which says
+whether a planned experiment can identify the parameters at all.
 """
 
 from __future__ import annotations
@@ -37,16 +42,17 @@ class ParameterUncertainty:
     covariance : ndarray
         In the order of ``parameters``.
     noise_variance : float
-        Estimated ``sigma^2`` per unit tracking weight.
-    degrees_of_freedom : int
-        ``num_measurements - num_free``.
+        ``sigma^2`` per unit tracking weight: estimated from the residuals, or as given to
+        :func:`cramer_rao_bound`.
+    degrees_of_freedom : int or None
+        ``num_measurements - num_free``; None for a bound (no residuals were used).
     """
 
     parameters: tuple[sm.Symbol, ...]
     standard_errors: dict[sm.Symbol, float]
     covariance: np.ndarray
     noise_variance: float
-    degrees_of_freedom: int
+    degrees_of_freedom: int | None
 
 
 def parameter_uncertainty(
@@ -83,16 +89,77 @@ def parameter_uncertainty(
             f"num_measurements: expected more than the {n - m} free quantities, "
             f"found {num_measurements}"
         )
-    z = solution.z
+    block = _kkt_parameter_block(problem, solution.z, solution.multipliers)
+    sigma2 = float(solution.stats["objective"]) / dof
+    return _result(problem, 2.0 * sigma2 * block, sigma2, dof)
+
+
+def cramer_rao_bound(
+    problem: Problem, z: np.ndarray, noise_variance: float = 1.0
+) -> ParameterUncertainty:
+    """The Cramer-Rao bound of the unknown parameters for data measured around ``z``.
+
+    The smallest covariance an unbiased estimate of the parameters can have when the
+    tracked outputs are measured at the truth ``z`` with independent Gaussian noise of
+    variance ``noise_variance / w`` (``w`` each output's tracking weight, so with weights
+    ``1 / sigma^2`` the default ``1.0`` is right). Computed like
+    :func:`parameter_uncertainty` but from the objective's Hessian alone (zero multipliers)
+    and the constraint Jacobian at ``z``: that is the Fisher information when the tracking
+    residuals vanish at ``z`` (noise-free data at the truth) or the outputs are linear.
+    Use it to ask whether a planned trial can identify a controller before fitting one.
+
+    Parameters
+    ----------
+    problem : Problem
+        A problem whose objective is a tracking least squares.
+    z : ndarray
+        The point, usually the truth of a synthetic study (``problem.initial_guess`` of the
+        true trajectories and parameters).
+    noise_variance : float
+        ``sigma^2`` per unit tracking weight, > 0.
+
+    Returns
+    -------
+    ParameterUncertainty
+        ``standard_errors`` are the bound's standard deviations, ``degrees_of_freedom`` is
+        None.
+
+    Raises
+    ------
+    ValueError
+        When there are no unknown parameters, ``z`` has the wrong shape, the noise variance
+        is not a positive number, or the information matrix is singular (parameters the
+        tracked outputs cannot identify at all).
+    """
+    nlp = problem.nlp
+    if len(problem.layout.parameter_names) == 0:
+        raise ValueError("problem: has no unknown parameters, so there is nothing to bound")
+    z = np.asarray(z, dtype=float)
+    if z.shape != (nlp.n,):
+        raise ValueError(f"z: expected shape ({nlp.n},), found {z.shape}")
+    if not (np.isfinite(noise_variance) and noise_variance > 0):
+        raise ValueError(f"noise_variance: expected a number > 0, found {noise_variance!r}")
+    block = _kkt_parameter_block(problem, z, np.zeros(nlp.m))
+    return _result(problem, 2.0 * float(noise_variance) * block, float(noise_variance), None)
+
+
+def _kkt_parameter_block(problem: Problem, z: np.ndarray, multipliers: np.ndarray) -> np.ndarray:
+    """Symmetrised ``[K^-1]_pp`` of the KKT matrix at ``z`` with these multipliers."""
+    nlp, lay = problem.nlp, problem.layout
+    n, m = nlp.n, nlp.m
     hr, hc = nlp.hessianstructure()
-    hv = nlp.hessian(z, solution.multipliers, 1.0)
+    hv = nlp.hessian(z, multipliers, 1.0)
     H = sp.coo_matrix((hv, (hr, hc)), shape=(n, n)).tocsc()
     H = H + sp.triu(H.T, k=1)
     jr, jc = nlp.jacobianstructure()
     C = sp.coo_matrix((nlp.jacobian(z), (jr, jc)), shape=(m, n)).tocsc()
     block = _parameter_block_of_kkt_inverse(H, C, lay.parameter_offset)
-    sigma2 = float(solution.stats["objective"]) / dof
-    cov = 2.0 * sigma2 * 0.5 * (block + block.T)
+    return 0.5 * (block + block.T)
+
+
+def _result(
+    problem: Problem, cov: np.ndarray, sigma2: float, dof: int | None
+) -> ParameterUncertainty:
     se = np.sqrt(np.clip(np.diag(cov), 0.0, None))
     params = problem.partition.unknown_parameters
     return ParameterUncertainty(
