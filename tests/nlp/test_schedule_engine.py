@@ -38,7 +38,7 @@ PLANT = {m1: 1.0, m2: 1.4, c: 0.4, k1: 5.0, k2: 3.0, kc: 1.5}
 P = 5
 
 
-def closed_toy(structure="full", points=P):
+def closed_toy(structure="full", points=P, outputs=None):
     residual = [
         q1.diff(t) - u1,
         q2.diff(t) - u2,
@@ -46,7 +46,7 @@ def closed_toy(structure="full", points=P):
         m2 * u2.diff(t) + c * u2 + k2 * q2 + kc * (q2 - q1) - T2 - F2,
     ]
     model = Model.from_equations(
-        residual, STATES, controlled_inputs=[T1, T2], known_inputs=[F1, F2]
+        residual, STATES, controlled_inputs=[T1, T2], known_inputs=[F1, F2], outputs=outputs
     )
     gs = GainScheduled(points, STATES, [T1, T2], structure=structure)
     return model.close_loop(gs), gs
@@ -580,15 +580,21 @@ def simulate(Tstar, K, times):
     return np.vstack([*pieces, x[None]])
 
 
-def identification_problem(structure, scheme, bounds=None):
-    """The toy closed by a schedule of ``structure``, tracking simulated positions on the
-    kink-aligned grid, and a start from the simulated states; returns the problem, the
-    schedule, the true ``T*`` and ``K``, the simulated states and the start."""
-    closed, gs = closed_toy(structure)
+def identification_problem(structure, scheme, bounds=None, torques=False):
+    """The toy closed by a schedule of ``structure``, tracking simulated positions (and with
+    ``torques`` the two controller outputs) on the kink-aligned grid, and a start from the
+    simulated states; returns the problem, the schedule, the true ``T*`` and ``K``, the
+    simulated states and the start."""
+    closed, gs = closed_toy(structure, outputs=[q1, q2, T1, T2] if torques else None)
     Tstar, K = true_schedule(structure)
     times = identification_times()
     X = simulate(Tstar, K, times)
     F = excitation(times)
+    measured = {q1: X[:, 0], q2: X[:, 1]}
+    if torques:
+        phase = phase_from_strikes(times, ID_STRIKES)
+        tau = reference_torque(phase, X, Tstar, K)
+        measured.update({T1: tau[:, 0], T2: tau[:, 1]})
     problem = Problem(
         closed,
         times,
@@ -599,7 +605,7 @@ def identification_problem(structure, scheme, bounds=None):
             F2: F[:, 1],
         },
         known_parameters=PLANT,
-        objective=Tracking({q1: X[:, 0], q2: X[:, 1]}),
+        objective=Tracking(measured),
         bounds=bounds,
         cache=False,
     )

@@ -144,5 +144,7 @@ def assemble(
     fo = templates.get("objective")
     if node_terms and fo is not None:
         extra = [term.data for term in node_terms] + [term.factors[:, None] for term in node_terms]
-        objective = Placement(fo, node_plain, np.hstack([node_data, *extra]))
+        objective = Placement(
+            fo, np.hstack([node_plain, slot_n]), np.hstack([node_data, slot_dn, *extra])
+        )
     return AssembledNLP(lay.num_variables, placements, objective)

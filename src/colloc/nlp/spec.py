@@ -207,12 +207,14 @@ def parse_instance_constraints(
 def check_node_terms(
     terms: Sequence[Any], model: Model, derivatives_allowed: bool, problems: list[str]
 ) -> None:
-    """Objective expressions may use states, inputs, parameters, t and their own data only."""
-    allowed_funcs = set(model.states) | set(model.inputs)
+    """Objective expressions may use states, inputs, parameters, t and their own data only
+    (and a schedule's slots, which a tracked output of a closed loop holds)."""
+    allowed_funcs = set(model.states) | set(model.inputs) | {s.weight for s in model.schedules}
     scheduled = {p for s in model.schedules for p in s.parameters}
+    slots = {a for s in model.schedules for a in s.slots_a + s.slots_b}
     for i, term in enumerate(terms):
         funcs = {a for a in term.expr.atoms(AppliedUndef)} - allowed_funcs
-        syms = term.expr.free_symbols - (set(model.parameters) - scheduled)
+        syms = term.expr.free_symbols - (set(model.parameters) - scheduled) - slots
         syms -= set(term.data_symbols) | {model.t}
         if funcs or syms:
             names = sorted(name_of(f) for f in funcs) + sorted(str(s) for s in syms)

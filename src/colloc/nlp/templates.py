@@ -78,6 +78,8 @@ class _Symbols:
         data_slots: list[ca.SX] = []
         weights: list[ca.SX] = []
         S: list[ca.SX] = []
+        #: model symbol -> placeholder, for expressions that hold the schedules' slots
+        self.slot_leaves: dict[sm.Basic, ca.SX] = {}
         for i, (sched, unknown) in enumerate(
             zip(part.model.schedules, part.schedule_is_unknown, strict=True)
         ):
@@ -87,6 +89,9 @@ class _Symbols:
             (free_slots if unknown else data_slots).extend([a, b])
             weights.append(w)
             S.extend([a, b, w])
+            self.slot_leaves.update(zip(sched.slots_a, _entries(a), strict=True))
+            self.slot_leaves.update(zip(sched.slots_b, _entries(b), strict=True))
+            self.slot_leaves[sched.weight] = w
         self.free_slots = ca.vertcat(*free_slots) if free_slots else ca.SX(0, 1)
         self.data_slots = ca.vertcat(*data_slots) if data_slots else ca.SX(0, 1)
         self.weights = ca.vertcat(*weights) if weights else ca.SX(0, 1)
@@ -181,9 +186,11 @@ def node_template(part: Partition, scheme: Scheme, F: ca.Function) -> StencilFun
 def objective_template(
     part: Partition, scheme: Scheme, terms: Sequence[NodeTerm]
 ) -> StencilFunctions:
-    """Node objective ``sum_terms c_term * phi_term``: ``w = [node, p_unknown]``.
+    """Node objective ``sum_terms c_term * phi_term``: ``w = [node, p_unknown, free slots]``.
 
-    Data ``d = [r_known, p_known, t, data of each term..., c of each term...]``.
+    Data ``d = [r_known, p_known, t, known slots, weights, data of each term..., c of each
+    term...]``; the slots bind the schedule points bracketing the node's phase (a tracked
+    output of a gain-scheduled controller).
     """
     s = _Symbols(part, scheme, "o")
     model = part.model
@@ -194,6 +201,7 @@ def objective_template(
     # Problem refuses such costs for other schemes, so the NaN placeholder never reaches a value.
     xdot = nv.v if nv.v is not None else ca.SX(model.num_states, 1) * float("nan")
     leaves = _leaves(model, xdot, nv.x, nv.r, s.p, t)
+    leaves.update(s.slot_leaves)
     data_syms, factors = [], []
     total = ca.SX(0)
     for term in terms:
@@ -204,8 +212,8 @@ def objective_template(
         total = total + c * phi
         data_syms.append(dsym)
         factors.append(c)
-    d = ca.vertcat(rk, s.pk, t, *data_syms, *factors)
-    return StencilFunctions.build("objective", ca.vertcat(z, s.pu), d, total)
+    d = ca.vertcat(rk, s.pk, t, s.data_slots, s.weights, *data_syms, *factors)
+    return StencilFunctions.build("objective", ca.vertcat(z, s.pu, s.free_slots), d, total)
 
 
 def instance_template(

@@ -18,6 +18,11 @@ accepted iterate. The step is damped (Levenberg-Marquardt on the reduced Hessian
 globalised by a backtracking line search on the l1 merit ``f + mu sum_k ||E_k^{-1} c_k||_1``
 (defects measured as corrections of the next state, with ``E_k`` frozen at the iterate).
 
+The objective is a sum of terms each in one node's states and the parameters (tracked
+states, and tracked controller outputs such as joint torques ``T*(phi) - K(phi) s``):
+each node's state block of its Hessian is taken positive semidefinite (Gauss-Newton), its
+node-parameter and parameter blocks enter the reduced system as they are.
+
 This is the classical approach to parameter estimation in ODEs by collocation or multiple
 shooting (Bock's generalized Gauss-Newton with condensing); the implementation is ours.
 """
@@ -37,6 +42,8 @@ from colloc.solve.result import NLP, SolveResult
 from colloc.solve.status import status_from_code
 
 SUCCEEDED, STALLED, USER_STOP, MAX_ITER, WALL_TIME, INVALID_NUMBER = 0, 3, 5, -1, -5, -13
+#: Times the damping may be raised within one iteration to reach a positive-curvature step.
+MAX_DAMPING_RAISES = 12
 
 
 @dataclass(frozen=True)
@@ -140,6 +147,7 @@ class _Blocks:
     factor: np.ndarray  # (N, n, n) H_k = factor_k factor_k^T
     rank: np.ndarray  # (N, n) bool: the columns of factor_k that are not zero
     H_theta: np.ndarray  # (q, q)
+    H_cross: np.ndarray  # (N, n, node width) objective Hessian node states x own parameters
 
 
 class _Chain:
@@ -205,7 +213,26 @@ class _Chain:
         self.h_flat_t = ((node_of[hr] * n + local[hc]) * n + local[hr])[self.h_node]
         self.h_theta = (theta_of[hr] >= 0) & (theta_of[hc] >= 0)
         self.ht_r, self.ht_c = theta_of[hr][self.h_theta], theta_of[hc][self.h_theta]
-        self.h_other = ~(self.h_node | self.h_theta)
+        # objective terms in a node's states and parameters (a tracked controller output):
+        # each node's parameter columns, padded with the dummy column q like the intervals'
+        forward = (node_of[hr] >= 0) & (theta_of[hc] >= 0)
+        backward = (theta_of[hr] >= 0) & (node_of[hc] >= 0)
+        self.h_cross = forward | backward
+        xn = np.where(forward, hr, hc)[self.h_cross]
+        xt = theta_of[np.where(forward, hc, hr)[self.h_cross]]
+        kn, il = node_of[xn], local[xn]
+        pairs = np.unique(kn * (q + 1) + xt)
+        pk, pc = np.divmod(pairs, q + 1)
+        starts = np.searchsorted(pk, np.arange(N))
+        rank = np.arange(pairs.size) - starts[pk]
+        self.node_width = max(int(rank.max(initial=-1)) + 1, 1)
+        self.node_columns = np.full((N, self.node_width), q, np.int64)
+        self.node_columns[pk, rank] = pc
+        slot = rank[np.searchsorted(pairs, kn * (q + 1) + xt)]
+        self.hx_flat = (kn * n + il) * self.node_width + slot
+        self.coupled = np.zeros(N, bool)
+        self.coupled[pk] = True
+        self.h_other = ~(self.h_node | self.h_theta | self.h_cross)
         self.node_index, self.parameter_index = s.node_index, s.parameter_index
         self.no_multipliers = np.zeros(nlp.m)
 
@@ -227,9 +254,9 @@ class _Chain:
         hess = nlp.hessian(z, self.no_multipliers, 1.0)
         if np.any(hess[self.h_other] != 0.0):
             raise ValueError(
-                "objective: its Hessian couples different nodes or a node with a parameter; "
-                "the Gauss-Newton solver supports objectives that are sums of per-node terms "
-                "and of parameter-only terms"
+                "objective: its Hessian couples different nodes; the Gauss-Newton solver "
+                "supports objectives that are sums of terms in one node's states and the "
+                "parameters"
             )
         v = hess[self.h_node]
         H = np.zeros(N * n * n)
@@ -242,6 +269,8 @@ class _Chain:
         np.add.at(H_theta, (self.ht_r, self.ht_c), vt)
         off_t = self.ht_r != self.ht_c
         np.add.at(H_theta, (self.ht_c[off_t], self.ht_r[off_t]), vt[off_t])
+        wn = self.node_width
+        H_cross = np.bincount(self.hx_flat, hess[self.h_cross], N * n * wn).reshape(N, n, wn)
         return _Blocks(
             D,
             E,
@@ -257,6 +286,17 @@ class _Chain:
             factor,
             rank,
             H_theta,
+            H_cross,
+        )
+
+    def curvature(self, b: _Blocks, dz: np.ndarray) -> float:
+        """``dz^T H dz`` of the model: node blocks, node-parameter blocks, parameter block."""
+        dx, dtheta = dz[self.node_index], dz[self.parameter_index]
+        padded = np.r_[dtheta, 0.0][self.node_columns]
+        return (
+            float(np.einsum("ki,kij,kj->", dx, b.H, dx))
+            + 2.0 * float(np.einsum("ki,kij,kj->", dx, b.H_cross, padded))
+            + float(dtheta @ b.H_theta @ dtheta)
         )
 
 
@@ -368,10 +408,18 @@ class _Step:
             active = np.zeros(q + 1, bool)
             rows = []
             grad = np.zeros(n + q + 1)
+            # node-parameter curvature: dx_k^T Hc_k dtheta_k = v^T (X_k^T Hc_k) v[n + cols_k]
+            cross = np.zeros((n + q + 1, q + 1))
             for k in range(first, last + 1):
                 if b.rank[k].any():
                     rows.append(b.factor[k][:, b.rank[k]].T @ X)
                     grad += X.T @ (b.g[k] + b.H[k] @ d)
+                if ch.coupled[k]:
+                    cols_k = ch.node_columns[k]
+                    reached = np.r_[np.arange(n), n + np.flatnonzero(active)]
+                    cross[np.ix_(reached, cols_k)] += X[:, reached].T @ b.H_cross[k]
+                    grad[n + cols_k] += b.H_cross[k].T @ d
+                    active[cols_k] = True
                 if k < last:
                     cols = ch.columns[k]
                     X = b.A[k] @ X
@@ -388,6 +436,11 @@ class _Step:
                 H_loc[s] += G[:n, :n]
                 H_cross[s][:, used] += G[:n, n:]
                 H_theta[np.ix_(used, used)] += G[n:, n:]
+            if ch.coupled[first : last + 1].any():
+                # W + W^T with W = cross (rows: the segment's first state and parameters)
+                H_cross[s][:, :q] += cross[:n, :q]
+                W = cross[n : n + q, :q]
+                H_theta += W + W.T
             g_loc[s] += grad[:n]
             g_theta[:q] += grad[n : n + q]
             if last < ch.N - 1:
@@ -515,13 +568,17 @@ def solve_gauss_newton(
             timing["evaluations"] += t1 - t0
             if it == opts.max_iter:
                 break
-            dz = stepper.compute(blocks, damping, deadline)
+            # The node-parameter and parameter blocks are the objective's exact Hessian, which
+            # a tracked controller output makes indefinite far from the data; more damping
+            # until the step has positive curvature (a Levenberg-Marquardt safeguard).
+            for _ in range(MAX_DAMPING_RAISES):
+                dz = stepper.compute(blocks, damping, deadline)
+                curvature = chain.curvature(blocks, dz)
+                if curvature > 0 or not np.any(dz):
+                    break
+                damping = min(max(10.0 * damping, 1e-4), 1e6)
             t2 = time.perf_counter()
             timing["condensing"] += t2 - t1
-            dx = dz[chain.node_index]
-            curvature = float(np.einsum("ki,kij,kj->", dx, blocks.H, dx))
-            dth = dz[chain.parameter_index]
-            curvature += float(dth @ blocks.H_theta @ dth)
             slope = float(blocks.gradient @ dz)
             # defects in state units, E_k^{-1} c_k with E_k frozen at this iterate: how far
             # each next state is from where the dynamics put it (a stiff contact's large
@@ -554,7 +611,7 @@ def solve_gauss_newton(
             ratio = (merit - merit_t) / max(alpha * (predicted + mu * c_norm), 1e-300)
             z, f, c = trial, f_t, c_t
             iterations = it + 1
-            if ratio > 0.75 and alpha == 1.0:
+            if ratio > 0.5 and alpha == 1.0:
                 damping = max(damping / 3.0, 1e-12)
             elif ratio < 0.25:
                 damping = min(damping * 4.0, 1e6)
