@@ -2,8 +2,10 @@
 
 gait2d closed by ``GainScheduled`` with the trial's own feedback set and P, the trial's
 ``controller_phase`` as the phase, all 18 states free, ``T*`` and ``K`` unknown, tracking the
-trunk pose and the six joint angles weighted by their noise (1 / sigma^2 / N). One fit window
-per run (each a fresh process, so the peak RSS is the case's own):
+trunk pose and the six joint angles weighted by their noise (1 / sigma^2 / N), and with
+``--track rates,torques`` the trial's rate columns and its six joint torques (outputs on the
+controlled inputs: the closed loop's ``T*(phi) - K(phi) s``). One fit window per run (each a
+fresh process, so the peak RSS is the case's own):
 
     python benchmarks/gait_identify_probe.py --trial DIR --fit 5 --start truth+20% \
         --max-iter 10 --pivot-order 4 --scheme midpoint
@@ -52,6 +54,7 @@ from colloc.data import read_trial
 from colloc.data.columns import (
     JOINT_ANGLE_COLUMNS,
     JOINT_RATE_COLUMNS,
+    TORQUE_COLUMNS,
     TRUNK_COLUMNS,
     TRUNK_RATE_COLUMNS,
 )
@@ -68,6 +71,15 @@ RESULTS = Path(__file__).parent / "results" / "gait_identify_probe.json"
 SCHEMES = {"midpoint": Midpoint, "backward-euler": BackwardEuler}
 #: Trial columns of the state x = [q, u] of gait2d, in state order.
 STATE_COLUMNS = TRUNK_COLUMNS + JOINT_ANGLE_COLUMNS + TRUNK_RATE_COLUMNS + JOINT_RATE_COLUMNS
+#: Sensor noise group of each state, in state order.
+STATE_GROUPS = (
+    ("trunk_position",) * 2
+    + ("trunk_angle",)
+    + ("joint_angle",) * 6
+    + ("trunk_velocity",) * 2
+    + ("trunk_angle_rate",)
+    + ("joint_rate",) * 6
+)
 TIMING = {
     "linear_solver": r"PDSystemSolverTotal\.*:\s*([0-9.]+)",
     "function_evaluations": r"Function Evaluations\.*:\s*([0-9.]+)",
@@ -126,6 +138,11 @@ def main() -> None:
     parser.add_argument(
         "--nodes-per-sample", type=int, default=1, help="collocation nodes per sample interval"
     )
+    parser.add_argument(
+        "--track",
+        default="",
+        help="also track: comma-separated from 'rates' and 'torques' (default positions only)",
+    )
     parser.add_argument("--friction-velocity", type=float, default=None, help="v_s [m/s]")
     parser.add_argument("--log", type=Path, default=None, help="keep IPOPT's log here")
     parser.add_argument("--out", type=Path, default=RESULTS)
@@ -143,7 +160,12 @@ def main() -> None:
     names = trial.metadata["controller"]["feedback"]
     feedback = [model.states[STATE_SIGNAL_NAMES.index(n)] for n in names]
     gs = GainScheduled(Tstar.shape[0], feedback, gait.torques)
-    closed = model.close_loop(gs)
+    extra = {e for e in args.track.split(",") if e}
+    if extra - {"rates", "torques"}:
+        parser.error(f"--track: expected 'rates' and/or 'torques', found {sorted(extra)}")
+    tracked = list(model.states[:9]) + (list(model.states[9:]) if "rates" in extra else [])
+    tracked += list(gait.torques) if "torques" in extra else []
+    closed = model.with_outputs(tracked).close_loop(gs)
     window = (trial.time >= args.start_time - 1e-9) & (
         trial.time <= args.start_time + args.fit + 1e-9
     )
@@ -165,15 +187,14 @@ def main() -> None:
     }
     std = trial.metadata["noise"]["std"]
     coordinates = model.states[:9]
-    measured = {
-        q: signals[c].to_numpy() for q, c in zip(coordinates, STATE_COLUMNS[:9], strict=True)
-    }
-    sigma = [std["trunk_position"]] * 2 + [std["trunk_angle"]] + [std["joint_angle"]] * 6
+    columns = dict(zip(model.states, STATE_COLUMNS, strict=True))
+    columns.update(zip(gait.torques, TORQUE_COLUMNS, strict=True))
+    groups = dict(zip(model.states, STATE_GROUPS, strict=True))
+    groups.update(dict.fromkeys(gait.torques, "joint_torque"))
+    measured = {y: signals[columns[y]].to_numpy() for y in tracked}
     # a noise-free trial is weighted as if it had the default sensor noise
-    floor = [DEFAULT_NOISE_STD[g] for g in ("trunk_position",) * 2 + ("trunk_angle",)]
-    floor += [DEFAULT_NOISE_STD["joint_angle"]] * 6
-    sigma = [s if s > 0 else f for s, f in zip(sigma, floor, strict=True)]
-    weights = {q: 1.0 / s**2 / N for q, s in zip(coordinates, sigma, strict=True)}
+    sigma = {y: std[groups[y]] or DEFAULT_NOISE_STD[groups[y]] for y in tracked}
+    weights = {y: 1.0 / sigma[y] ** 2 / N for y in tracked}
     objective = Tracking(measured, weights)
     truth = gs.parameter_values(Tstar, K)
     rng = np.random.default_rng(args.seed)
@@ -209,6 +230,7 @@ def main() -> None:
         "nodes_per_sample": args.nodes_per_sample,
         "hessian": args.hessian,
         "solver": args.solver,
+        "tracked": [name_of(y) for y in tracked],
         "ipopt_options": options,
     }
     if args.fixed_first:
