@@ -385,14 +385,26 @@ def _solve_bordered(
     return dy, dtheta
 
 
+@dataclass
+class _Reduced:
+    """The condensed system before damping."""
+
+    H_loc: np.ndarray  # (S, n, n)
+    H_cross: np.ndarray  # (S, n, q)
+    H_theta: np.ndarray  # (q, q)
+    g_loc: np.ndarray  # (S, n)
+    g_theta: np.ndarray  # (q,)
+    links: _Links
+
+
 class _Step:
     """Condense, solve the reduced system, expand: one Gauss-Newton step."""
 
     def __init__(self, chain: _Chain, segments: list[tuple[int, int]]) -> None:
         self.chain, self.segments = chain, segments
 
-    def compute(self, b: _Blocks, damping: float, deadline: float) -> np.ndarray:
-        """The full step ``dz`` (damping on the reduced Hessian's diagonal)."""
+    def condense(self, b: _Blocks, deadline: float) -> _Reduced:
+        """The reduced system of the segments' first states, links and parameters."""
         ch = self.chain
         n, q, S = ch.n, ch.q, len(self.segments)
         H_loc = np.zeros((S, n, n))
@@ -450,12 +462,19 @@ class _Step:
                 links.G[s][:, ch.columns[k]] += b.T[k]
                 links.E[s] = b.E[k]
                 links.r[s] = -b.c[k] - b.D[k] @ d
+        return _Reduced(H_loc, H_cross[:, :, :q], H_theta, g_loc, g_theta[:q], links)
+
+    def solve(self, b: _Blocks, r: _Reduced, damping: float) -> np.ndarray:
+        """The full step ``dz`` with ``damping`` on the reduced Hessian's diagonal (the
+        condensed system is kept, so raising the damping costs one banded solve)."""
+        n, q = self.chain.n, self.chain.q
+        H_loc, H_theta = r.H_loc.copy(), r.H_theta.copy()
         diagonals = np.r_[np.einsum("sii->si", H_loc).ravel(), np.diag(H_theta)]
         floor = 1e-8 * max(float(diagonals.max(initial=0.0)), 1.0)
         idx = np.arange(n)
         H_loc[:, idx, idx] += damping * np.maximum(H_loc[:, idx, idx], floor)
         H_theta[np.diag_indices(q)] += damping * np.maximum(np.diag(H_theta), floor)
-        dy, dtheta = _solve_bordered(H_loc, H_cross[:, :, :q], H_theta, g_loc, g_theta[:q], links)
+        dy, dtheta = _solve_bordered(H_loc, r.H_cross, H_theta, r.g_loc, r.g_theta, r.links)
         return self.expand(b, np.r_[dy.ravel(), dtheta])
 
     def expand(self, b: _Blocks, dp: np.ndarray) -> np.ndarray:
@@ -571,8 +590,9 @@ def solve_gauss_newton(
             # The node-parameter and parameter blocks are the objective's exact Hessian, which
             # a tracked controller output makes indefinite far from the data; more damping
             # until the step has positive curvature (a Levenberg-Marquardt safeguard).
+            reduced = stepper.condense(blocks, deadline)
             for _ in range(MAX_DAMPING_RAISES):
-                dz = stepper.compute(blocks, damping, deadline)
+                dz = stepper.solve(blocks, reduced, damping)
                 curvature = chain.curvature(blocks, dz)
                 if curvature > 0 or not np.any(dz):
                     break
