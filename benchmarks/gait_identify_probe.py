@@ -51,16 +51,10 @@ from sympy.physics.mechanics import dynamicsymbols
 
 from colloc import GainScheduled, GaussNewtonOptions, IntegralCost, Problem, Tracking
 from colloc.data import read_trial
-from colloc.data.columns import (
-    JOINT_ANGLE_COLUMNS,
-    JOINT_RATE_COLUMNS,
-    TORQUE_COLUMNS,
-    TRUNK_COLUMNS,
-    TRUNK_RATE_COLUMNS,
-)
+from colloc.data.columns import TORQUE_COLUMNS
 from colloc.gait.metadata import STATE_SIGNAL_NAMES, controller_from_metadata
 from colloc.gait.orbit import GaitDynamics
-from colloc.gait.trials import DEFAULT_NOISE_STD
+from colloc.gait.trials import COLUMN_NOISE_GROUP, DEFAULT_NOISE_STD, STATE_COLUMNS
 from colloc.identify.direct import smooth_with_derivatives
 from colloc.model.symbols import name_of
 from colloc.models.gait2d_params import load_parameters
@@ -69,17 +63,6 @@ from colloc.transcription import BackwardEuler, Midpoint
 
 RESULTS = Path(__file__).parent / "results" / "gait_identify_probe.json"
 SCHEMES = {"midpoint": Midpoint, "backward-euler": BackwardEuler}
-#: Trial columns of the state x = [q, u] of gait2d, in state order.
-STATE_COLUMNS = TRUNK_COLUMNS + JOINT_ANGLE_COLUMNS + TRUNK_RATE_COLUMNS + JOINT_RATE_COLUMNS
-#: Sensor noise group of each state, in state order.
-STATE_GROUPS = (
-    ("trunk_position",) * 2
-    + ("trunk_angle",)
-    + ("joint_angle",) * 6
-    + ("trunk_velocity",) * 2
-    + ("trunk_angle_rate",)
-    + ("joint_rate",) * 6
-)
 TIMING = {
     "linear_solver": r"PDSystemSolverTotal\.*:\s*([0-9.]+)",
     "function_evaluations": r"Function Evaluations\.*:\s*([0-9.]+)",
@@ -189,8 +172,7 @@ def main() -> None:
     coordinates = model.states[:9]
     columns = dict(zip(model.states, STATE_COLUMNS, strict=True))
     columns.update(zip(gait.torques, TORQUE_COLUMNS, strict=True))
-    groups = dict(zip(model.states, STATE_GROUPS, strict=True))
-    groups.update(dict.fromkeys(gait.torques, "joint_torque"))
+    groups = {y: COLUMN_NOISE_GROUP[c] for y, c in columns.items()}
     measured = {y: signals[columns[y]].to_numpy() for y in tracked}
     # a noise-free trial is weighted as if it had the default sensor noise
     sigma = {y: std[groups[y]] or DEFAULT_NOISE_STD[groups[y]] for y in tracked}

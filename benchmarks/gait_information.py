@@ -32,31 +32,15 @@ from results_file import append_record
 
 from colloc import GainScheduled, Problem, Tracking, cramer_rao_bound
 from colloc.data import read_trial
-from colloc.data.columns import (
-    JOINT_ANGLE_COLUMNS,
-    JOINT_RATE_COLUMNS,
-    TORQUE_COLUMNS,
-    TRUNK_COLUMNS,
-    TRUNK_RATE_COLUMNS,
-)
+from colloc.data.columns import TORQUE_COLUMNS
 from colloc.gait.metadata import STATE_SIGNAL_NAMES, controller_from_metadata
 from colloc.gait.orbit import GaitDynamics
-from colloc.gait.trials import DEFAULT_NOISE_STD
+from colloc.gait.trials import COLUMN_NOISE_GROUP, DEFAULT_NOISE_STD, STATE_COLUMNS
 from colloc.models.gait2d_params import load_parameters
 from colloc.transcription import BackwardEuler, Midpoint
 
 RESULTS = Path(__file__).parent / "results" / "gait_information.json"
 SCHEMES = {"midpoint": Midpoint, "backward-euler": BackwardEuler}
-STATE_COLUMNS = TRUNK_COLUMNS + JOINT_ANGLE_COLUMNS + TRUNK_RATE_COLUMNS + JOINT_RATE_COLUMNS
-#: Noise group of each state, in state order.
-STATE_GROUPS = (
-    ("trunk_position",) * 2
-    + ("trunk_angle",)
-    + ("joint_angle",) * 6
-    + ("trunk_velocity",) * 2
-    + ("trunk_angle_rate",)
-    + ("joint_rate",) * 6
-)
 SETS = ("positions", "positions+rates", "positions+rates+torques")
 
 
@@ -83,26 +67,22 @@ def main() -> None:
         Tstar.shape[0], [model.states[STATE_SIGNAL_NAMES.index(n)] for n in names], gait.torques
     )
     truth = gs.parameter_values(Tstar, K)
-    sigma = {x: DEFAULT_NOISE_STD[g] for x, g in zip(model.states, STATE_GROUPS, strict=True)}
-    sigma.update(dict.fromkeys(gait.torques, DEFAULT_NOISE_STD["joint_torque"]))
+    columns = dict(zip(model.states, STATE_COLUMNS, strict=True))
+    columns.update(zip(gait.torques, TORQUE_COLUMNS, strict=True))
+    sigma = {y: DEFAULT_NOISE_STD[COLUMN_NOISE_GROUP[c]] for y, c in columns.items()}
     for fit in args.fit:
         window = (trial.time >= args.start_time - 1e-9) & (
             trial.time <= args.start_time + fit + 1e-9
         )
         t, signals = trial.time[window], trial.signals[window]
-        states = {
-            x: signals[c].to_numpy() for x, c in zip(model.states, STATE_COLUMNS, strict=True)
-        }
-        torques = {
-            T: signals[c].to_numpy() for T, c in zip(gait.torques, TORQUE_COLUMNS, strict=True)
-        }
+        data = {y: signals[c].to_numpy() for y, c in columns.items()}
+        states = {x: data[x] for x in model.states}
         for measured in args.measured:
             tracked = list(model.states[:9])
             if "rates" in measured:
                 tracked += list(model.states[9:])
             if "torques" in measured:
                 tracked += list(gait.torques)
-            data = {**states, **torques}
             t0 = time.perf_counter()
             closed = model.with_outputs(tracked).close_loop(gs)
             problem = Problem(

@@ -17,8 +17,10 @@ from colloc.data.columns import (
 from colloc.data.trial import read_trial
 from colloc.gait.metadata import controller_from_metadata, controller_metadata, synthetic_metadata
 from colloc.gait.trials import (
+    COLUMN_NOISE_GROUP,
     DEFAULT_NOISE_STD,
     NOISE_GROUPS,
+    STATE_COLUMNS,
     record_to_trial,
     resolve_noise_std,
     true_signals,
@@ -85,6 +87,12 @@ def test_true_signals_map_states_to_canonical_columns():
     np.testing.assert_array_equal(frame["belt_position"], record.belt_position)
     for i, name in enumerate(TORQUE_COLUMNS):
         np.testing.assert_array_equal(frame[name], record.torques[:, i])
+    # STATE_COLUMNS reads the state back in gait2d's order, each column in one noise group
+    np.testing.assert_array_equal(frame[list(STATE_COLUMNS)].to_numpy(), record.states)
+    assert [COLUMN_NOISE_GROUP[c] for c in STATE_COLUMNS[:9]] == (
+        ["trunk_position"] * 2 + ["trunk_angle"] + ["joint_angle"] * 6
+    )
+    assert sorted(COLUMN_NOISE_GROUP) == sorted(c for g in NOISE_GROUPS.values() for c in g)
 
 
 def test_noise_free_trial_resamples_at_the_sample_rate():

@@ -78,6 +78,17 @@ NOISE_GROUPS: dict[str, tuple[str, ...]] = {
     "joint_torque": TORQUE_COLUMNS,
 }
 
+#: Trial columns of gait2d's state ``x = [q, u]``, in state order (trunk x, y, angle, the six
+#: joints, then their rates).
+STATE_COLUMNS: tuple[str, ...] = (
+    TRUNK_COLUMNS + JOINT_ANGLE_COLUMNS + TRUNK_RATE_COLUMNS + JOINT_RATE_COLUMNS
+)
+
+#: Column -> the noise group it belongs to (inverse of :data:`NOISE_GROUPS`).
+COLUMN_NOISE_GROUP: dict[str, str] = {
+    column: group for group, columns in NOISE_GROUPS.items() for column in columns
+}
+
 _NUM_COORDINATES = 9
 _NUM_STATES = 2 * _NUM_COORDINATES
 _NUM_TORQUES = 6
