@@ -25,7 +25,10 @@ from colloc.transcription.base import Scheme
 
 logger = logging.getLogger(__name__)
 
-_VERSION = "1"
+#: Bumped whenever a template's arguments change, so functions cached by an older colloc are
+#: rebuilt instead of being called with the wrong layout (2: the objective takes the
+#: schedules' slots, for tracked controller outputs).
+_VERSION = "2"
 
 
 def _fingerprint(
