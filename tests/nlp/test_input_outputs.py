@@ -93,3 +93,27 @@ def test_measuring_the_torque_tightens_the_bound():
     tight = cramer_rao_bound(with_torque, z).standard_errors[g]
     loose = cramer_rao_bound(without, z).standard_errors[g]
     assert tight < loose
+
+
+def test_gauss_newton_hessian_is_2_jt_w_j_of_the_residuals():
+    # residuals per node: r_x = x - xm (weight 0.3), r_y = -g x - ym (weight 1.7); by hand
+    # d2/dx2 = 2 (0.3 + 1.7 g^2), d2/dx dg = 2 * 1.7 g x, d2/dg2 = sum 2 * 1.7 x^2, while
+    # the exact Hessian adds the residual-weighted 2 * 1.7 * r_y * (-1) to the cross term
+    rng = np.random.default_rng(5)
+    xm, ym = rng.standard_normal((2, TIMES.size))
+    pr, g = problem(xm, ym, {x: 0.3, y: 1.7})
+    xs, gv = rng.standard_normal(TIMES.size), 1.3
+    z = pr.initial_guess({x: xs}, {g: gv})
+    nlp, lay = pr.nlp, pr.layout
+    rows, cols = nlp.hessianstructure()
+    dense = np.zeros((nlp.n, nlp.n))
+    np.add.at(dense, (rows, cols), nlp.gauss_newton_hessian(z))
+    exact = np.zeros((nlp.n, nlp.n))
+    np.add.at(exact, (rows, cols), nlp.hessian(z, np.zeros(nlp.m), 1.0))
+    ix = lay.node_indices("x")
+    ig = lay.variable_index(g.name)
+    np.testing.assert_allclose(dense[ix, ix], 2 * (0.3 + 1.7 * gv**2), rtol=1e-12)
+    np.testing.assert_allclose(dense[ig, ix], 2 * 1.7 * gv * xs, rtol=1e-12)
+    assert dense[ig, ig] == pytest.approx(np.sum(2 * 1.7 * xs**2), rel=1e-12)
+    r_y = -gv * xs - ym
+    np.testing.assert_allclose(exact[ig, ix] - dense[ig, ix], 2 * 1.7 * r_y * -1.0, atol=1e-12)

@@ -143,6 +143,22 @@ class AssembledNLP:
             self._hess_inverse, weights=np.concatenate(parts), minlength=self._num_hess
         )
 
+    def gauss_newton_hessian(self, z: np.ndarray) -> np.ndarray:
+        """The objective's Hessian with each least-squares term (tracking) replaced by its
+        Gauss-Newton part ``2 J^T W J``, in the order of :meth:`hessianstructure`.
+
+        Positive semidefinite for tracking objectives, whatever the residuals; the
+        constraints' curvature is left out.
+        """
+        o = self.objective_placement
+        if o is None:
+            return np.zeros(self._num_hess)
+        data = o.data.copy()
+        data[:, -1] = 1.0
+        vals = o.mapped.hessian(o.gather(z), data, np.ones(o.count)).ravel()
+        offset = sum(p.hess_rows.size for p in self.constraint_placements)
+        return np.bincount(self._hess_inverse[offset:], weights=vals, minlength=self._num_hess)
+
     @property
     def nnz_jacobian(self) -> int:
         """Number of Jacobian nonzeros."""

@@ -27,8 +27,8 @@ logger = logging.getLogger(__name__)
 
 #: Bumped whenever a template's arguments change, so functions cached by an older colloc are
 #: rebuilt instead of being called with the wrong layout (2: the objective takes the
-#: schedules' slots, for tracked controller outputs).
-_VERSION = "2"
+#: schedules' slots, for tracked controller outputs; 3: and a Gauss-Newton switch).
+_VERSION = "3"
 
 
 def _fingerprint(

@@ -32,12 +32,17 @@ class NodeTerm:
         The values of the placeholders at each node.
     factors : ndarray, shape (N,)
         ``c_k``.
+    least_squares : tuple of (residual, weight) pairs
+        When ``phi = sum weight * residual**2`` (a tracking term): its pieces, from which the
+        Gauss-Newton Hessian ``2 sum weight grad(residual) grad(residual)^T`` is built.
+        Empty for other terms.
     """
 
     expr: sm.Expr
     data_symbols: tuple[sm.Symbol, ...]
     data: np.ndarray
     factors: np.ndarray
+    least_squares: tuple[tuple[sm.Expr, sm.Basic], ...] = ()
 
 
 class ObjectiveTerm(ABC):
@@ -114,17 +119,15 @@ class Tracking(ObjectiveTerm):
         outputs = list(self.measurements)
         ym = sm.symbols(f"ym{index}_0:{len(outputs)}")
         wm = sm.symbols(f"wm{index}_0:{len(outputs)}")
-        expr = sum(
-            (w * (model.outputs[y] - m) ** 2 for y, m, w in zip(outputs, ym, wm, strict=True)),
-            sm.S.Zero,
-        )
+        pieces = tuple((model.outputs[y] - m, w) for y, m, w in zip(outputs, ym, wm, strict=True))
+        expr = sum((w * r**2 for r, w in pieces), sm.S.Zero)
         measured = np.column_stack([self.measurements[y] for y in outputs])
         missing = np.isnan(measured)
         weight_cols = np.column_stack(
             [np.where(missing[:, j], 0.0, self.weights[y]) for j, y in enumerate(outputs)]
         )
         data = np.hstack([np.where(missing, 0.0, measured), weight_cols])
-        return NodeTerm(expr, tuple(ym) + tuple(wm), data, np.ones(times.size))
+        return NodeTerm(expr, tuple(ym) + tuple(wm), data, np.ones(times.size), pieces)
 
     def fingerprint(self) -> str:
         """See :meth:`ObjectiveTerm.fingerprint`."""

@@ -144,7 +144,8 @@ def assemble(
     fo = templates.get("objective")
     if node_terms and fo is not None:
         extra = [term.data for term in node_terms] + [term.factors[:, None] for term in node_terms]
+        exact = np.zeros((N, 1))  # the Gauss-Newton switch, off: IPOPT's exact Hessian
         objective = Placement(
-            fo, np.hstack([node_plain, slot_n]), np.hstack([node_data, slot_dn, *extra])
+            fo, np.hstack([node_plain, slot_n]), np.hstack([node_data, slot_dn, *extra, exact])
         )
     return AssembledNLP(lay.num_variables, placements, objective)

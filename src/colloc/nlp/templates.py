@@ -189,8 +189,9 @@ def objective_template(
     """Node objective ``sum_terms c_term * phi_term``: ``w = [node, p_unknown, free slots]``.
 
     Data ``d = [r_known, p_known, t, known slots, weights, data of each term..., c of each
-    term...]``; the slots bind the schedule points bracketing the node's phase (a tracked
-    output of a gain-scheduled controller).
+    term..., gn]``; the slots bind the schedule points bracketing the node's phase (a tracked
+    output of a gain-scheduled controller). ``gn = 1`` makes the Hessian the Gauss-Newton
+    one for least-squares terms (:meth:`AssembledNLP.gauss_newton_hessian`), ``0`` exact.
     """
     s = _Symbols(part, scheme, "o")
     model = part.model
@@ -204,6 +205,11 @@ def objective_template(
     leaves.update(s.slot_leaves)
     data_syms, factors = [], []
     total = ca.SX(0)
+    w = ca.vertcat(z, s.pu, s.free_slots)
+    # data switch gn: 0 -> the exact Hessian, 1 -> least-squares terms by their Gauss-Newton
+    # part 2 c J^T diag(weight) J (positive semidefinite; no residual-weighted curvature)
+    gn = ca.SX.sym("gn")
+    curvature = ca.SX(w.numel(), w.numel())
     for term in terms:
         dsym = ca.SX.sym("d", len(term.data_symbols))
         leaves.update(zip(term.data_symbols, _entries(dsym), strict=True))
@@ -212,8 +218,14 @@ def objective_template(
         total = total + c * phi
         data_syms.append(dsym)
         factors.append(c)
-    d = ca.vertcat(rk, s.pk, t, s.data_slots, s.weights, *data_syms, *factors)
-    return StencilFunctions.build("objective", ca.vertcat(z, s.pu, s.free_slots), d, total)
+        if term.least_squares:
+            pieces = sympy_to_casadi([e for pair in term.least_squares for e in pair], leaves)
+            r, weight = ca.vertcat(*pieces[0::2]), ca.vertcat(*pieces[1::2])
+            J = ca.jacobian(r, w)
+            gauss_newton = 2.0 * c * ca.mtimes(J.T, ca.mtimes(ca.diag(weight), J))
+            curvature = curvature + gn * (gauss_newton - ca.hessian(c * phi, w)[0])
+    d = ca.vertcat(rk, s.pk, t, s.data_slots, s.weights, *data_syms, *factors, gn)
+    return StencilFunctions.build("objective", w, d, total, curvature)
 
 
 def instance_template(

@@ -44,7 +44,9 @@ class StencilFunctions:
     hess_cols: np.ndarray
 
     @classmethod
-    def build(cls, name: str, w: ca.SX, d: ca.SX, g: ca.SX) -> StencilFunctions:
+    def build(
+        cls, name: str, w: ca.SX, d: ca.SX, g: ca.SX, curvature: ca.SX | None = None
+    ) -> StencilFunctions:
         """Differentiate ``g(w, d)`` with respect to ``w``.
 
         Parameters
@@ -55,10 +57,17 @@ class StencilFunctions:
             Column symbols of the free variables and the data.
         g : casadi.SX
             Column expression of the item's equations (or a scalar objective).
+        curvature : casadi.SX, optional
+            For a scalar ``g``: a symmetric matrix in ``(w, d)`` added to its Hessian (times
+            ``mu``), on the exact Hessian's sparsity pattern; e.g. a data switch from a
+            least-squares term's exact Hessian to its Gauss-Newton part.
         """
         mu = ca.SX.sym("mu", g.numel())
         jac = ca.jacobian(g, w)
-        hess = ca.tril(ca.hessian(ca.dot(mu, g), w)[0])
+        exact = ca.hessian(ca.dot(mu, g), w)[0]
+        if curvature is not None:
+            exact = ca.project(exact + mu[0] * curvature, exact.sparsity())
+        hess = ca.tril(exact)
         jr, jc = jac.sparsity().get_triplet()
         hr, hc = hess.sparsity().get_triplet()
         # Common-subexpression elimination roughly halves the instructions of the

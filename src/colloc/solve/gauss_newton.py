@@ -19,9 +19,10 @@ globalised by a backtracking line search on the l1 merit ``f + mu sum_k ||E_k^{-
 (defects measured as corrections of the next state, with ``E_k`` frozen at the iterate).
 
 The objective is a sum of terms each in one node's states and the parameters (tracked
-states, and tracked controller outputs such as joint torques ``T*(phi) - K(phi) s``):
-each node's state block of its Hessian is taken positive semidefinite (Gauss-Newton), its
-node-parameter and parameter blocks enter the reduced system as they are.
+states, and tracked controller outputs such as joint torques ``T*(phi) - K(phi) s``). Its
+Hessian is the NLP's Gauss-Newton one (tracking terms by ``2 J^T W J``), with each node's
+state block also taken positive semidefinite for any other term; the node-parameter and
+parameter blocks enter the reduced system as they are.
 
 This is the classical approach to parameter estimation in ODEs by collocation or multiple
 shooting (Bock's generalized Gauss-Newton with condensing); the implementation is ours.
@@ -234,7 +235,6 @@ class _Chain:
         self.coupled[pk] = True
         self.h_other = ~(self.h_node | self.h_theta | self.h_cross)
         self.node_index, self.parameter_index = s.node_index, s.parameter_index
-        self.no_multipliers = np.zeros(nlp.m)
 
     def state_defect_norm(self, b: _Blocks, c: np.ndarray) -> float:
         """``sum |E_k^{-1} c_k|`` with the ``E_k`` of linearization ``b``."""
@@ -251,7 +251,7 @@ class _Chain:
         c = nlp.constraints(z)[self.row_order].reshape(N - 1, n)
         propagated = -np.linalg.solve(E, np.concatenate([D, T, c[:, :, None]], axis=2))
         grad = nlp.gradient(z)
-        hess = nlp.hessian(z, self.no_multipliers, 1.0)
+        hess = nlp.gauss_newton_hessian(z)
         if np.any(hess[self.h_other] != 0.0):
             raise ValueError(
                 "objective: its Hessian couples different nodes; the Gauss-Newton solver "
@@ -528,8 +528,8 @@ def solve_gauss_newton(
     Parameters
     ----------
     nlp : NLP
-        Objective, gradient, defects, their sparse Jacobian and the objective's Hessian
-        (``hessian`` with zero multipliers).
+        Objective, gradient, defects, their sparse Jacobian and the objective's
+        Gauss-Newton Hessian (``gauss_newton_hessian``).
     x0 : ndarray
         Start.
     structure : ChainStructure

@@ -46,14 +46,13 @@ class _Callbacks:
         self.jacobian = nlp.jacobian
         self.jacobianstructure = nlp.jacobianstructure
         self.hessian = self._objective_hessian if gauss_newton else nlp.hessian
-        self._no_multipliers = np.zeros(nlp.m)
         self.hessianstructure = nlp.hessianstructure
 
     def _objective_hessian(
         self, z: np.ndarray, lagrange: np.ndarray, obj_factor: float
     ) -> np.ndarray:
-        # Gauss-Newton: the constraints' curvature (multiplier-weighted) is left out
-        return self.nlp.hessian(z, self._no_multipliers, obj_factor)
+        # Gauss-Newton: tracking terms by J^T W J, the constraints' curvature left out
+        return obj_factor * self.nlp.gauss_newton_hessian(z)
 
     def intermediate(
         self,
@@ -99,7 +98,8 @@ def solve_nlp(
     nlp : NLP
     x0, lower, upper : ndarray
     hessian : {"exact", "limited-memory", "gauss-newton"}
-        ``"gauss-newton"`` passes IPOPT the objective's Hessian only (zero multipliers).
+        ``"gauss-newton"`` passes IPOPT the objective's Gauss-Newton Hessian only (tracking
+        terms by ``2 J^T W J``, the constraints' curvature left out).
     progress : callable, optional
         Called after every iteration; returning ``False`` stops the solve.
     log_path : path, optional

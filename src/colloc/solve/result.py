@@ -23,6 +23,7 @@ class NLP(Protocol):
     def jacobianstructure(self) -> tuple[np.ndarray, np.ndarray]: ...  # noqa: D102
     def hessian(self, z: np.ndarray, lagrange: np.ndarray, obj_factor: float) -> np.ndarray: ...  # noqa: D102
     def hessianstructure(self) -> tuple[np.ndarray, np.ndarray]: ...  # noqa: D102
+    def gauss_newton_hessian(self, z: np.ndarray) -> np.ndarray: ...  # noqa: D102
 
 
 @dataclass
