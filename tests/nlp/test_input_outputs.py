@@ -66,12 +66,17 @@ def problem(xm, ym, weights=None):
     )
 
 
-def test_tracking_an_input_output_matches_numpy():
-    rng = np.random.default_rng(4)
+def random_point(seed):
+    """The problem on random data (weights 0.3 on x, 1.7 on y) at a random point."""
+    rng = np.random.default_rng(seed)
     xm, ym = rng.standard_normal((2, TIMES.size))
     pr, g = problem(xm, ym, {x: 0.3, y: 1.7})
     xs, gv = rng.standard_normal(TIMES.size), 1.3
-    z = pr.initial_guess({x: xs}, {g: gv})
+    return pr, g, xm, ym, xs, gv, pr.initial_guess({x: xs}, {g: gv})
+
+
+def test_tracking_an_input_output_matches_numpy():
+    pr, _, xm, ym, xs, gv, z = random_point(4)
     expected = np.sum(0.3 * (xs - xm) ** 2 + 1.7 * (-gv * xs - ym) ** 2)
     assert pr.nlp.objective(z) == pytest.approx(expected, rel=1e-12)
 
@@ -99,11 +104,7 @@ def test_gauss_newton_hessian_is_2_jt_w_j_of_the_residuals():
     # residuals per node: r_x = x - xm (weight 0.3), r_y = -g x - ym (weight 1.7); by hand
     # d2/dx2 = 2 (0.3 + 1.7 g^2), d2/dx dg = 2 * 1.7 g x, d2/dg2 = sum 2 * 1.7 x^2, while
     # the exact Hessian adds the residual-weighted 2 * 1.7 * r_y * (-1) to the cross term
-    rng = np.random.default_rng(5)
-    xm, ym = rng.standard_normal((2, TIMES.size))
-    pr, g = problem(xm, ym, {x: 0.3, y: 1.7})
-    xs, gv = rng.standard_normal(TIMES.size), 1.3
-    z = pr.initial_guess({x: xs}, {g: gv})
+    pr, g, _, ym, xs, gv, z = random_point(5)
     nlp, lay = pr.nlp, pr.layout
     rows, cols = nlp.hessianstructure()
     dense = np.zeros((nlp.n, nlp.n))
