@@ -385,6 +385,23 @@ def _solve_bordered(
     return dy, dtheta
 
 
+class _Reached:
+    """The parameters a segment has reached, in the order it reached them."""
+
+    def __init__(self, q: int) -> None:
+        self.slot = np.full(q + 1, -1, np.int64)
+        self.order = np.zeros(q + 1, np.int64)
+        self.count = 0
+
+    def reach(self, columns: np.ndarray) -> np.ndarray:
+        """Positions of ``columns`` (parameter indices), adding those not reached yet."""
+        new = np.unique(columns[self.slot[columns] < 0])
+        self.slot[new] = self.count + np.arange(new.size)
+        self.order[self.count : self.count + new.size] = new
+        self.count += new.size
+        return self.slot[columns]
+
+
 @dataclass
 class _Reduced:
     """The condensed system before damping."""
@@ -414,51 +431,63 @@ class _Step:
         g_theta = np.r_[b.g_theta, 0.0]
         links = _Links(S - 1, n, q)
         for s, (first, last) in enumerate(self.segments):
-            X = np.zeros((n, n + q + 1))  # the last column absorbs padding
+            # X = d x_k / d [y_s, theta] on the parameters the segment has reached only:
+            # column n + i holds parameter reached[i] (q, the padding column, included)
+            X = np.zeros((n, n + q + 1))
             X[:, :n] = np.eye(n)
+            columns = _Reached(q)
             d = np.zeros(n)
-            active = np.zeros(q + 1, bool)
-            rows = []
+            rows: list[np.ndarray] = []
             grad = np.zeros(n + q + 1)
-            # node-parameter curvature: dx_k^T Hc_k dtheta_k = v^T (X_k^T Hc_k) v[n + cols_k]
-            cross = np.zeros((n + q + 1, q + 1))
+            # node-parameter curvature dx_k^T Hc_k dtheta_k: rows as X's columns, columns
+            # by parameter
+            coupled = bool(ch.coupled[first : last + 1].any())
+            cross = np.zeros((n + q + 1, q + 1) if coupled else (0, 0))
             for k in range(first, last + 1):
+                m = n + columns.count
                 if b.rank[k].any():
-                    rows.append(b.factor[k][:, b.rank[k]].T @ X)
-                    grad += X.T @ (b.g[k] + b.H[k] @ d)
+                    rows.append(b.factor[k][:, b.rank[k]].T @ X[:, :m])
+                    grad[:m] += X[:, :m].T @ (b.g[k] + b.H[k] @ d)
                 if ch.coupled[k]:
                     cols_k = ch.node_columns[k]
-                    reached = np.r_[np.arange(n), n + np.flatnonzero(active)]
-                    cross[np.ix_(reached, cols_k)] += X[:, reached].T @ b.H_cross[k]
-                    grad[n + cols_k] += b.H_cross[k].T @ d
-                    active[cols_k] = True
+                    cross[:m, cols_k] += X[:, :m].T @ b.H_cross[k]
+                    grad[n + columns.reach(cols_k)] += b.H_cross[k].T @ d
                 if k < last:
                     cols = ch.columns[k]
-                    X = b.A[k] @ X
-                    X[:, n + cols] += b.B[k]
+                    at = n + columns.reach(cols)
+                    m = n + columns.count
+                    X[:, :m] = b.A[k] @ X[:, :m]
+                    X[:, at] += b.B[k]
                     d = b.A[k] @ d + b.a[k]
-                    active[cols] = True
             if time.perf_counter() > deadline:
                 raise _WallTime
-            used = np.flatnonzero(active[:q])
+            m = n + columns.count
+            real = np.flatnonzero(columns.order[: columns.count] < q)
+            params = columns.order[real]
+            local = np.r_[np.arange(n), n + real]
             if rows:
-                R = np.vstack(rows)[:, np.r_[np.arange(n), n + used]]
-                G = sla.blas.dsyrk(1.0, R, trans=1)
+                R = np.zeros((sum(r.shape[0] for r in rows), m))
+                i = 0
+                for r in rows:
+                    R[i : i + r.shape[0], : r.shape[1]] = r
+                    i += r.shape[0]
+                G = sla.blas.dsyrk(1.0, R[:, local], trans=1)
                 G = np.triu(G) + np.triu(G, 1).T
                 H_loc[s] += G[:n, :n]
-                H_cross[s][:, used] += G[:n, n:]
-                H_theta[np.ix_(used, used)] += G[n:, n:]
-            if ch.coupled[first : last + 1].any():
+                H_cross[s][:, params] += G[:n, n:]
+                H_theta[np.ix_(params, params)] += G[n:, n:]
+            if coupled:
                 # W + W^T with W = cross (rows: the segment's first state and parameters)
                 H_cross[s][:, :q] += cross[:n, :q]
-                W = cross[n : n + q, :q]
-                H_theta += W + W.T
+                W = cross[n + real, :q]
+                H_theta[params, :] += W
+                H_theta[:, params] += W.T
             g_loc[s] += grad[:n]
-            g_theta[:q] += grad[n : n + q]
+            g_theta[params] += grad[n + real]
             if last < ch.N - 1:
                 k = last
                 links.C[s] = b.D[k] @ X[:, :n]
-                links.G[s] = b.D[k] @ X[:, n:]
+                links.G[s][:, columns.order[: columns.count]] = b.D[k] @ X[:, n:m]
                 links.G[s][:, ch.columns[k]] += b.T[k]
                 links.E[s] = b.E[k]
                 links.r[s] = -b.c[k] - b.D[k] @ d
