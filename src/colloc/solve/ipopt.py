@@ -1,7 +1,8 @@
-"""Drive IPOPT (with MUMPS) through cyipopt on an assembled NLP.
+"""Drive IPOPT (with MUMPS) on an assembled NLP.
 
-cyipopt hands IPOPT's callbacks straight to our vectorised evaluators as NumPy arrays;
-a CasADi ``Callback`` inside ``nlpsol`` would route the same arrays through more layers.
+IPOPT's C interface (:mod:`colloc.solve.ipopt_capi`, the library ``cyipopt-wheels`` ships)
+calls our vectorised evaluators, and each result reaches IPOPT's buffer in one memmove; a
+CasADi ``Callback`` inside ``nlpsol`` would route the same arrays through more layers.
 """
 
 from __future__ import annotations
@@ -15,6 +16,7 @@ from typing import Any
 
 import numpy as np
 
+from colloc.solve.ipopt_capi import CProblem
 from colloc.solve.result import NLP, SolveResult
 from colloc.solve.status import status_from_code
 
@@ -29,7 +31,7 @@ DEFAULT_OPTIONS: dict[str, Any] = {
 
 
 class _Callbacks:
-    """Adapts an :class:`NLP` to cyipopt, recording the iteration history."""
+    """Adapts an :class:`NLP` to IPOPT's callbacks, recording the iteration history."""
 
     def __init__(
         self,
@@ -111,22 +113,12 @@ def solve_nlp(
     -------
     SolveResult
     """
-    import cyipopt
-
     if hessian not in HESSIAN_CHOICES:
         raise ValueError(f"hessian: expected one of {HESSIAN_CHOICES}, found {hessian!r}")
     approximation = "limited-memory" if hessian == "limited-memory" else "exact"
     opts = {**DEFAULT_OPTIONS, "hessian_approximation": approximation, **dict(options or {})}
     callbacks = _Callbacks(nlp, progress, gauss_newton=hessian == "gauss-newton")
-    problem = cyipopt.Problem(
-        n=nlp.n,
-        m=nlp.m,
-        problem_obj=callbacks,
-        lb=lower,
-        ub=upper,
-        cl=np.zeros(nlp.m),
-        cu=np.zeros(nlp.m),
-    )
+    problem = CProblem(nlp.n, nlp.m, callbacks, lower, upper, np.zeros(nlp.m), np.zeros(nlp.m))
     tmp_dir = None
     if log_path is None:
         tmp_dir = tempfile.TemporaryDirectory(prefix="colloc-ipopt-")
