@@ -43,21 +43,17 @@ import resource
 import time
 from pathlib import Path
 
+import gait_setup
 import numpy as np
 import pandas as pd
 from results_file import append_record
 from scipy.interpolate import CubicSpline
 from sympy.physics.mechanics import dynamicsymbols
 
-from colloc import GainScheduled, GaussNewtonOptions, IntegralCost, Problem, Tracking
-from colloc.data import read_trial
-from colloc.data.columns import TORQUE_COLUMNS
-from colloc.gait.metadata import STATE_SIGNAL_NAMES, controller_from_metadata
-from colloc.gait.orbit import GaitDynamics
+from colloc import GaussNewtonOptions, IntegralCost, Problem, Tracking
 from colloc.gait.trials import COLUMN_NOISE_GROUP, DEFAULT_NOISE_STD, STATE_COLUMNS
 from colloc.identify.direct import smooth_with_derivatives
 from colloc.model.symbols import name_of
-from colloc.models.gait2d_params import load_parameters
 from colloc.solve.ipopt import HESSIAN_CHOICES
 from colloc.transcription import BackwardEuler, Midpoint
 
@@ -131,37 +127,28 @@ def main() -> None:
     parser.add_argument("--out", type=Path, default=RESULTS)
     args = parser.parse_args()
 
-    trial = read_trial(args.trial)
-    Tstar, K, _ = controller_from_metadata(trial.metadata)
-    dyn = GaitDynamics.build(
-        load_parameters(trial.metadata.get("body_mass", 75.0), trial.metadata.get("height", 1.8))
-    )
-    gait, model = dyn.gait, dyn.model
+    setup = gait_setup.load(args.trial)
+    trial, Tstar, K, gs, columns = setup.trial, setup.Tstar, setup.K, setup.gs, setup.columns
+    dyn, gait, model = setup.dyn, setup.dyn.gait, setup.dyn.model
     constants = dict(dyn.constants)
     if args.friction_velocity is not None:
         constants[next(c for c in constants if str(c) == "v_s")] = args.friction_velocity
-    names = trial.metadata["controller"]["feedback"]
-    feedback = [model.states[STATE_SIGNAL_NAMES.index(n)] for n in names]
-    gs = GainScheduled(Tstar.shape[0], feedback, gait.torques)
+    names = setup.names
     extra = {e for e in args.track.split(",") if e}
     if extra - {"rates", "torques"}:
         parser.error(f"--track: expected 'rates' and/or 'torques', found {sorted(extra)}")
     tracked = list(model.states[:9]) + (list(model.states[9:]) if "rates" in extra else [])
     tracked += list(gait.torques) if "torques" in extra else []
     closed = model.with_outputs(tracked).close_loop(gs)
-    window = (trial.time >= args.start_time - 1e-9) & (
-        trial.time <= args.start_time + args.fit + 1e-9
-    )
-    t, signals = trial.time[window], trial.signals[window]
+    t, signals = setup.window(args.start_time, args.fit)
     if args.nodes_per_sample > 1:
         # a finer grid than the samples: every column interpolated onto it (cubic splines;
         # the phase linearly, it has kinks at heel strikes), tracking weights spread over it
         fine = np.linspace(t[0], t[-1], (t.size - 1) * args.nodes_per_sample + 1)
         spline = CubicSpline(t, signals.to_numpy(), axis=0)(fine)
+        phase = signals["controller_phase"].to_numpy()
         signals = pd.DataFrame(spline, columns=signals.columns)
-        signals["controller_phase"] = np.interp(
-            fine, t, trial.signals["controller_phase"].to_numpy()[window]
-        )
+        signals["controller_phase"] = np.interp(fine, t, phase)
         t = fine
     N = t.size
     known = {
@@ -170,8 +157,6 @@ def main() -> None:
     }
     std = trial.metadata["noise"]["std"]
     coordinates = model.states[:9]
-    columns = dict(zip(model.states, STATE_COLUMNS, strict=True))
-    columns.update(zip(gait.torques, TORQUE_COLUMNS, strict=True))
     groups = {y: COLUMN_NOISE_GROUP[c] for y, c in columns.items()}
     measured = {y: signals[columns[y]].to_numpy() for y in tracked}
     # a noise-free trial is weighted as if it had the default sensor noise

@@ -27,16 +27,12 @@ import resource
 import time
 from pathlib import Path
 
+import gait_setup
 import numpy as np
 from results_file import append_record
 
-from colloc import GainScheduled, Problem, Tracking, cramer_rao_bound
-from colloc.data import read_trial
-from colloc.data.columns import TORQUE_COLUMNS
-from colloc.gait.metadata import STATE_SIGNAL_NAMES, controller_from_metadata
-from colloc.gait.orbit import GaitDynamics
-from colloc.gait.trials import COLUMN_NOISE_GROUP, DEFAULT_NOISE_STD, STATE_COLUMNS
-from colloc.models.gait2d_params import load_parameters
+from colloc import Problem, Tracking, cramer_rao_bound
+from colloc.gait.trials import COLUMN_NOISE_GROUP, DEFAULT_NOISE_STD
 from colloc.transcription import BackwardEuler, Midpoint
 
 RESULTS = Path(__file__).parent / "results" / "gait_information.json"
@@ -54,27 +50,15 @@ def main() -> None:
     parser.add_argument("--out", type=Path, default=RESULTS)
     args = parser.parse_args()
 
-    trial = read_trial(args.trial)
-    if any(v > 0 for v in trial.metadata["noise"]["std"].values()):
+    setup = gait_setup.load(args.trial)
+    if any(v > 0 for v in setup.trial.metadata["noise"]["std"].values()):
         parser.error("--trial: the bound is taken at the truth, so the trial must be noise-free")
-    Tstar, K, _ = controller_from_metadata(trial.metadata)
-    dyn = GaitDynamics.build(
-        load_parameters(trial.metadata.get("body_mass", 75.0), trial.metadata.get("height", 1.8))
-    )
-    gait, model = dyn.gait, dyn.model
-    names = trial.metadata["controller"]["feedback"]
-    gs = GainScheduled(
-        Tstar.shape[0], [model.states[STATE_SIGNAL_NAMES.index(n)] for n in names], gait.torques
-    )
+    Tstar, K, gs, columns, names = setup.Tstar, setup.K, setup.gs, setup.columns, setup.names
+    dyn, gait, model = setup.dyn, setup.dyn.gait, setup.dyn.model
     truth = gs.parameter_values(Tstar, K)
-    columns = dict(zip(model.states, STATE_COLUMNS, strict=True))
-    columns.update(zip(gait.torques, TORQUE_COLUMNS, strict=True))
     sigma = {y: DEFAULT_NOISE_STD[COLUMN_NOISE_GROUP[c]] for y, c in columns.items()}
     for fit in args.fit:
-        window = (trial.time >= args.start_time - 1e-9) & (
-            trial.time <= args.start_time + fit + 1e-9
-        )
-        t, signals = trial.time[window], trial.signals[window]
+        t, signals = setup.window(args.start_time, fit)
         data = {y: signals[c].to_numpy() for y, c in columns.items()}
         states = {x: data[x] for x in model.states}
         for measured in args.measured:

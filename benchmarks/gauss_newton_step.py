@@ -19,16 +19,12 @@ import statistics
 import time
 from pathlib import Path
 
+import gait_setup
 import numpy as np
 from results_file import append_record
 
-from colloc import GainScheduled, Problem, Tracking
-from colloc.data import read_trial
-from colloc.data.columns import TORQUE_COLUMNS
-from colloc.gait.metadata import STATE_SIGNAL_NAMES, controller_from_metadata
-from colloc.gait.orbit import GaitDynamics
-from colloc.gait.trials import COLUMN_NOISE_GROUP, DEFAULT_NOISE_STD, STATE_COLUMNS
-from colloc.models.gait2d_params import load_parameters
+from colloc import Problem, Tracking
+from colloc.gait.trials import COLUMN_NOISE_GROUP, DEFAULT_NOISE_STD
 from colloc.solve import gauss_newton
 from colloc.transcription import BackwardEuler
 
@@ -56,23 +52,11 @@ def main() -> None:
     parser.add_argument("--out", type=Path, default=RESULTS)
     args = parser.parse_args()
 
-    trial = read_trial(args.trial)
-    Tstar, K, _ = controller_from_metadata(trial.metadata)
-    dyn = GaitDynamics.build(
-        load_parameters(trial.metadata.get("body_mass", 75.0), trial.metadata.get("height", 1.8))
-    )
-    gait, model = dyn.gait, dyn.model
-    names = trial.metadata["controller"]["feedback"]
-    gs = GainScheduled(
-        Tstar.shape[0], [model.states[STATE_SIGNAL_NAMES.index(n)] for n in names], gait.torques
-    )
+    setup = gait_setup.load(args.trial)
+    Tstar, K, gs, columns = setup.Tstar, setup.K, setup.gs, setup.columns
+    gait, model = setup.dyn.gait, setup.dyn.model
     tracked = list(model.states) + (list(gait.torques) if args.torques else [])
-    window = (trial.time >= args.start_time - 1e-9) & (
-        trial.time <= args.start_time + args.fit + 1e-9
-    )
-    t, signals = trial.time[window], trial.signals[window]
-    columns = dict(zip(model.states, STATE_COLUMNS, strict=True))
-    columns.update(zip(gait.torques, TORQUE_COLUMNS, strict=True))
+    t, signals = setup.window(args.start_time, args.fit)
     weights = {y: 1.0 / DEFAULT_NOISE_STD[COLUMN_NOISE_GROUP[columns[y]]] ** 2 for y in tracked}
     t0 = time.perf_counter()
     problem = Problem(
@@ -83,7 +67,7 @@ def main() -> None:
             gait.belt_speed: signals["belt_speed"].to_numpy(),
             gs.phase: signals["controller_phase"].to_numpy(),
         },
-        known_parameters=dict(dyn.constants),
+        known_parameters=dict(setup.dyn.constants),
         objective=Tracking({y: signals[columns[y]].to_numpy() for y in tracked}, weights),
     )
     build = time.perf_counter() - t0

@@ -19,6 +19,8 @@ from typing import Any, Protocol
 
 import numpy as np
 
+from colloc.solve.result import Evaluations
+
 _index = ctypes.c_int
 _number = ctypes.c_double
 _bool = ctypes.c_bool
@@ -63,16 +65,9 @@ _INTERMEDIATE = ctypes.CFUNCTYPE(
 )
 
 
-class Callbacks(Protocol):
+class Callbacks(Evaluations, Protocol):
     """What :class:`CProblem` calls: cyipopt's ``problem_obj`` interface."""
 
-    def objective(self, z: np.ndarray) -> float: ...  # noqa: D102
-    def gradient(self, z: np.ndarray) -> np.ndarray: ...  # noqa: D102
-    def constraints(self, z: np.ndarray) -> np.ndarray: ...  # noqa: D102
-    def jacobian(self, z: np.ndarray) -> np.ndarray: ...  # noqa: D102
-    def jacobianstructure(self) -> tuple[np.ndarray, np.ndarray]: ...  # noqa: D102
-    def hessian(self, z: np.ndarray, lagrange: np.ndarray, obj_factor: float) -> np.ndarray: ...  # noqa: D102
-    def hessianstructure(self) -> tuple[np.ndarray, np.ndarray]: ...  # noqa: D102
     def intermediate(self, *args: Any) -> bool: ...  # noqa: D102
 
 
@@ -152,6 +147,12 @@ def _copy_into(target: Any, values: np.ndarray, count: int, what: str) -> None:
     if arr.size != count:
         raise ValueError(f"{what}: expected {count} values, found {arr.size}")
     ctypes.memmove(target, arr.ctypes.data, arr.nbytes)
+
+
+def _copy_pattern(rows: Any, cols: Any, pattern: tuple[np.ndarray, np.ndarray]) -> bool:
+    ctypes.memmove(rows, pattern[0].ctypes.data, pattern[0].nbytes)
+    ctypes.memmove(cols, pattern[1].ctypes.data, pattern[1].nbytes)
+    return True
 
 
 class CProblem:
@@ -243,44 +244,20 @@ class CProblem:
         _copy_into(out, self._cb.constraints(self._x(n, x)), m, "constraints")
         return True
 
-    def _jacobian(
-        self,
-        n: int,
-        x: Any,
-        new_x: bool,
-        m: int,
-        nele: int,
-        rows: Any,
-        cols: Any,
-        values: Any,
-        _: Any,
-    ) -> bool:
+    def _jacobian(self, *args: Any) -> bool:
+        # (n, x, new_x, m, nele_jac, iRow, jCol, values, user_data), as Eval_Jac_G_CB
+        n, x, _, _, nele, rows, cols, values, _ = args
         if not values:
-            ctypes.memmove(rows, self._jac[0].ctypes.data, self._jac[0].nbytes)
-            ctypes.memmove(cols, self._jac[1].ctypes.data, self._jac[1].nbytes)
-            return True
+            return _copy_pattern(rows, cols, self._jac)
         _copy_into(values, self._cb.jacobian(self._x(n, x)), nele, "jacobian")
         return True
 
-    def _hessian(
-        self,
-        n: int,
-        x: Any,
-        new_x: bool,
-        obj_factor: float,
-        m: int,
-        lam: Any,
-        new_lambda: bool,
-        nele: int,
-        rows: Any,
-        cols: Any,
-        values: Any,
-        _: Any,
-    ) -> bool:
+    def _hessian(self, *args: Any) -> bool:
+        # (n, x, new_x, obj_factor, m, lambda, new_lambda, nele_hess, iRow, jCol, values,
+        # user_data), as Eval_H_CB
+        n, x, _, obj_factor, m, lam, _, nele, rows, cols, values, _ = args
         if not values:
-            ctypes.memmove(rows, self._hess[0].ctypes.data, self._hess[0].nbytes)
-            ctypes.memmove(cols, self._hess[1].ctypes.data, self._hess[1].nbytes)
-            return True
+            return _copy_pattern(rows, cols, self._hess)
         lagrange = np.ctypeslib.as_array(lam, shape=(m,)).copy() if m else np.zeros(0)
         _copy_into(values, self._cb.hessian(self._x(n, x), lagrange, obj_factor), nele, "hessian")
         return True

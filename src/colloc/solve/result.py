@@ -10,11 +10,8 @@ import numpy as np
 from colloc.solve.status import SolveStatus
 
 
-class NLP(Protocol):
-    """The callbacks of an assembled problem: values, sparse derivatives and their patterns."""
-
-    n: int
-    m: int
+class Evaluations(Protocol):
+    """Values, sparse derivatives and their patterns (lower-triangle Hessian): what IPOPT calls."""
 
     def objective(self, z: np.ndarray) -> float: ...  # noqa: D102
     def gradient(self, z: np.ndarray) -> np.ndarray: ...  # noqa: D102
@@ -23,6 +20,14 @@ class NLP(Protocol):
     def jacobianstructure(self) -> tuple[np.ndarray, np.ndarray]: ...  # noqa: D102
     def hessian(self, z: np.ndarray, lagrange: np.ndarray, obj_factor: float) -> np.ndarray: ...  # noqa: D102
     def hessianstructure(self) -> tuple[np.ndarray, np.ndarray]: ...  # noqa: D102
+
+
+class NLP(Evaluations, Protocol):
+    """The callbacks of an assembled problem, its sizes and its Gauss-Newton Hessian."""
+
+    n: int
+    m: int
+
     def gauss_newton_hessian(self, z: np.ndarray) -> np.ndarray: ...  # noqa: D102
 
 
