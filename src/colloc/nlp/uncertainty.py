@@ -89,7 +89,8 @@ def parameter_uncertainty(
             f"num_measurements: expected more than the {n - m} free quantities, "
             f"found {num_measurements}"
         )
-    block = _kkt_parameter_block(problem, solution.z, solution.multipliers)
+    hessian = problem.nlp.hessian(solution.z, solution.multipliers, 1.0)
+    block = _kkt_parameter_block(problem, solution.z, hessian)
     sigma2 = float(solution.stats["objective"]) / dof
     return _result(problem, 2.0 * sigma2 * block, sigma2, dof)
 
@@ -103,9 +104,10 @@ def cramer_rao_bound(
     tracked outputs are measured at the truth ``z`` with independent Gaussian noise of
     variance ``noise_variance / w`` (``w`` each output's tracking weight, so with weights
     ``1 / sigma^2`` the default ``1.0`` is right). Computed like
-    :func:`parameter_uncertainty` but from the objective's Hessian alone (zero multipliers)
-    and the constraint Jacobian at ``z``: that is the Fisher information when the tracking
-    residuals vanish at ``z`` (noise-free data at the truth) or the outputs are linear.
+    :func:`parameter_uncertainty` but from the objective's Gauss-Newton Hessian
+    ``2 J^T W J`` (no constraint curvature) and the constraint Jacobian at ``z``: the
+    Fisher information of the tracked outputs, whatever the residuals at ``z`` (a
+    discretization's small mismatch to noise-free data does not enter).
     Use it to ask whether a planned trial can identify a controller before fitting one.
 
     Parameters
@@ -139,17 +141,16 @@ def cramer_rao_bound(
         raise ValueError(f"z: expected shape ({nlp.n},), found {z.shape}")
     if not (np.isfinite(noise_variance) and noise_variance > 0):
         raise ValueError(f"noise_variance: expected a number > 0, found {noise_variance!r}")
-    block = _kkt_parameter_block(problem, z, np.zeros(nlp.m))
+    block = _kkt_parameter_block(problem, z, nlp.gauss_newton_hessian(z))
     return _result(problem, 2.0 * float(noise_variance) * block, float(noise_variance), None)
 
 
-def _kkt_parameter_block(problem: Problem, z: np.ndarray, multipliers: np.ndarray) -> np.ndarray:
-    """Symmetrised ``[K^-1]_pp`` of the KKT matrix at ``z`` with these multipliers."""
+def _kkt_parameter_block(problem: Problem, z: np.ndarray, hessian: np.ndarray) -> np.ndarray:
+    """Symmetrised ``[K^-1]_pp`` of the KKT matrix at ``z`` with these Hessian nonzeros."""
     nlp, lay = problem.nlp, problem.layout
     n, m = nlp.n, nlp.m
     hr, hc = nlp.hessianstructure()
-    hv = nlp.hessian(z, multipliers, 1.0)
-    H = sp.coo_matrix((hv, (hr, hc)), shape=(n, n)).tocsc()
+    H = sp.coo_matrix((hessian, (hr, hc)), shape=(n, n)).tocsc()
     H = H + sp.triu(H.T, k=1)
     jr, jc = nlp.jacobianstructure()
     C = sp.coo_matrix((nlp.jacobian(z), (jr, jc)), shape=(m, n)).tocsc()
