@@ -1,36 +1,53 @@
-"""colloc: identify the hidden parameters of closed-loop dynamic systems by direct collocation."""
+"""colloc: identify the hidden parameters of closed-loop dynamic systems by direct collocation.
 
-from colloc import transcription
-from colloc.control import GainScheduled, StateFeedback
-from colloc.control.lqr import LQRResult, lqr
-from colloc.model import Model, ModelError, ProblemDefinitionError
-from colloc.model.linearize import linearize
-from colloc.model.state_space import StateSpace
-from colloc.nlp import IntegralCost, Problem, Solution, TerminalCost, Tracking
-from colloc.nlp.uncertainty import ParameterUncertainty, cramer_rao_bound, parameter_uncertainty
-from colloc.solve.gauss_newton import GaussNewtonOptions
+The public names below load on first use (``colloc._lazy``): ``import colloc`` costs
+milliseconds, and SymPy, CasADi and SciPy are imported by the first name that needs them.
+"""
+
+# ruff: noqa: F401  (the TYPE_CHECKING imports are re-exported by __all__, built from _EXPORTS)
+from typing import TYPE_CHECKING
+
+from colloc._lazy import lazy_exports
 
 __version__ = "0.1.0"
 
-__all__ = [
-    "GainScheduled",
-    "GaussNewtonOptions",
-    "IntegralCost",
-    "LQRResult",
-    "ParameterUncertainty",
-    "StateSpace",
-    "linearize",
-    "lqr",
-    "parameter_uncertainty",
-    "cramer_rao_bound",
-    "Model",
-    "ModelError",
-    "Problem",
-    "ProblemDefinitionError",
-    "Solution",
-    "StateFeedback",
-    "TerminalCost",
-    "Tracking",
-    "__version__",
-    "transcription",
-]
+_EXPORTS = {
+    "GainScheduled": "colloc.control",
+    "StateFeedback": "colloc.control",
+    "LQRResult": "colloc.control.lqr",
+    "lqr": "colloc.control.lqr",
+    "Model": "colloc.model",
+    "ModelError": "colloc.model",
+    "ProblemDefinitionError": "colloc.model",
+    "linearize": "colloc.model.linearize",
+    "StateSpace": "colloc.model.state_space",
+    "IntegralCost": "colloc.nlp",
+    "Problem": "colloc.nlp",
+    "Solution": "colloc.nlp",
+    "TerminalCost": "colloc.nlp",
+    "Tracking": "colloc.nlp",
+    "ParameterUncertainty": "colloc.nlp.uncertainty",
+    "cramer_rao_bound": "colloc.nlp.uncertainty",
+    "parameter_uncertainty": "colloc.nlp.uncertainty",
+    "GaussNewtonOptions": "colloc.solve.gauss_newton",
+    "transcription": "colloc.transcription",
+}
+
+__getattr__, __dir__ = lazy_exports(__name__, _EXPORTS, globals())
+
+if TYPE_CHECKING:  # for type checkers; re-exported through __all__
+    from colloc import transcription
+    from colloc.control import GainScheduled, StateFeedback
+    from colloc.control.lqr import LQRResult, lqr
+    from colloc.model import Model, ModelError, ProblemDefinitionError
+    from colloc.model.linearize import linearize
+    from colloc.model.state_space import StateSpace
+    from colloc.nlp import IntegralCost, Problem, Solution, TerminalCost, Tracking
+    from colloc.nlp.uncertainty import (
+        ParameterUncertainty,
+        cramer_rao_bound,
+        parameter_uncertainty,
+    )
+    from colloc.solve.gauss_newton import GaussNewtonOptions
+
+__all__ = [*_EXPORTS, "__version__"]

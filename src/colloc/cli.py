@@ -179,6 +179,21 @@ def build_parser() -> argparse.ArgumentParser:
         "--unperturbed", action="store_true", help="constant belt speed instead of the record"
     )
     sim.add_argument(
+        "--motor-noise",
+        type=_number,
+        default=0.0,
+        metavar="NM",
+        help="standard deviation of Gaussian noise on each joint torque in the simulation, N m "
+        "(default %(default)s; real walking has some, e.g. 2-5)",
+    )
+    sim.add_argument(
+        "--noise",
+        type=_number,
+        default=1.0,
+        help="sensor noise as a multiple of the default lab noise, 0 for none "
+        "(default %(default)s)",
+    )
+    sim.add_argument(
         "--perturbation-scale",
         type=_number,
         default=1.0,
@@ -211,7 +226,6 @@ def _pendulum(args: argparse.Namespace) -> int:
         save_pendulum_plots,
         write_json_atomic,
     )
-    from colloc.store import RunStore
 
     settings = PendulumSettings(
         num_links=args.numlinks,
@@ -229,7 +243,11 @@ def _pendulum(args: argparse.Namespace) -> int:
     if _report_problems("colloc pendulum", settings.problems()):
         return 2
     # Open the database before any work so a bad URL fails fast.
-    store = None if args.no_store else RunStore(args.db)
+    store = None
+    if not args.no_store:
+        from colloc.store import RunStore  # SQLAlchemy and pandas: only when storing
+
+        store = RunStore(args.db)
     start = time.perf_counter()
     progress = _step_printer(start)
 
@@ -318,6 +336,8 @@ def _gait(args: argparse.Namespace) -> int:
         feedback=args.feedback,
         perturbed=not args.unperturbed,
         perturbation_scale=args.perturbation_scale,
+        motor_noise=args.motor_noise,
+        noise=args.noise,
     )
     if _report_problems("colloc gait simulate", settings.problems()):
         return 2

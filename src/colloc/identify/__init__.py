@@ -1,15 +1,35 @@
-"""Identification workflows: data -> Problem -> Solution -> metrics."""
+"""Identification workflows: data -> Problem -> Solution -> metrics.
 
-from colloc.identify.direct import direct_estimate, smooth_with_derivatives
-from colloc.identify.guesses import GAIN_GUESSES
-from colloc.identify.pendulum import SCHEMES, PendulumRun, PendulumSettings, run_pendulum
+Names load on first use (``colloc._lazy``).
+"""
 
-__all__ = [
-    "GAIN_GUESSES",
-    "SCHEMES",
-    "PendulumRun",
-    "PendulumSettings",
-    "direct_estimate",
-    "run_pendulum",
-    "smooth_with_derivatives",
-]
+# ruff: noqa: F401  (the TYPE_CHECKING imports are re-exported by __all__, built from _EXPORTS)
+from typing import TYPE_CHECKING
+
+from colloc._lazy import lazy_exports
+
+_EXPORTS = {
+    "ScheduleFit": "colloc.identify.direct",
+    "direct_estimate": "colloc.identify.direct",
+    "fit_gain_schedule": "colloc.identify.direct",
+    "smooth_with_derivatives": "colloc.identify.direct",
+    "GAIN_GUESSES": "colloc.identify.guesses",
+    "SCHEMES": "colloc.identify.pendulum",
+    "PendulumRun": "colloc.identify.pendulum",
+    "PendulumSettings": "colloc.identify.pendulum",
+    "run_pendulum": "colloc.identify.pendulum",
+}
+
+__getattr__, __dir__ = lazy_exports(__name__, _EXPORTS, globals())
+
+if TYPE_CHECKING:  # for type checkers; re-exported through __all__
+    from colloc.identify.direct import (
+        ScheduleFit,
+        direct_estimate,
+        fit_gain_schedule,
+        smooth_with_derivatives,
+    )
+    from colloc.identify.guesses import GAIN_GUESSES
+    from colloc.identify.pendulum import SCHEMES, PendulumRun, PendulumSettings, run_pendulum
+
+__all__ = list(_EXPORTS)

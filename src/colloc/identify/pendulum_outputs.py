@@ -6,21 +6,15 @@ import json
 import os
 import tempfile
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from colloc.identify.pendulum import PendulumRun
-from colloc.plot import (
-    animate_pendulum_cart,
-    plot_constraint_violations,
-    plot_force,
-    plot_gains,
-    plot_states,
-    plot_trajectory_comparison,
-    save_figure,
-)
-from colloc.store import ParameterRow, RunRecord, digest_arrays, package_versions, run_id_for
+from colloc.store import digest_arrays, package_versions, run_id_for
+
+if TYPE_CHECKING:
+    from colloc.store.record import RunRecord
 
 
 def pendulum_run_id(run: PendulumRun) -> str:
@@ -71,6 +65,8 @@ def pendulum_summary(run: PendulumRun, run_id: str) -> dict[str, Any]:
 
 def pendulum_record(run: PendulumRun, run_id: str) -> RunRecord:
     """The database record of a run (settings, versions, statistics, log, gains, arrays)."""
+    from colloc.store.record import ParameterRow, RunRecord  # pandas: only when storing
+
     stats = {k: v for k, v in run.solution.stats.items() if k not in ("ipopt_log",)}
     stats["times"] = dict(run.timings)
     stats["max_rel_gain_error"] = run.max_rel_gain_error
@@ -111,6 +107,15 @@ def save_pendulum_plots(
     run: PendulumRun, directory: Path, formats: tuple[str, ...] = ("png", "svg")
 ) -> list[Path]:
     """Cart force, states, measured vs identified, constraint violations, gains."""
+    from colloc.plot import (  # matplotlib: only when figures are asked for
+        plot_constraint_violations,
+        plot_force,
+        plot_gains,
+        plot_states,
+        plot_trajectory_comparison,
+        save_figure,
+    )
+
     n = run.settings.num_links
     names = [f"q{i}" for i in range(n + 1)] + [f"u{i}" for i in range(n + 1)]
     interval_rows = run.problem.layout.blocks[0]
@@ -136,6 +141,8 @@ def save_pendulum_plots(
 
 def save_pendulum_animation(run: PendulumRun, path: Path) -> Path:
     """The identified motion as a GIF (or MP4 when the path ends in .mp4)."""
+    from colloc.plot import animate_pendulum_cart  # matplotlib: only when animating
+
     n = run.settings.num_links
     return animate_pendulum_cart(run.times, run.identified_states[:, : n + 1], run.lengths, path)
 

@@ -6,13 +6,14 @@ from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
-import pandas as pd
 import sympy as sm
 
 from colloc.model.symbols import name_of
 from colloc.solve.status import SolveStatus
 
 if TYPE_CHECKING:
+    import pandas as pd
+
     from colloc.nlp.problem import Problem
     from colloc.solve.result import SolveResult
 
@@ -105,11 +106,15 @@ class Solution:
 
     def to_pandas(self) -> pd.DataFrame:
         """Trajectories as a DataFrame indexed by time, one column per symbol name."""
+        import pandas as pd  # pandas only for who asks for frames
+
         data = {name_of(s): v for s, v in self.trajectories.items()}
         return pd.DataFrame(data, index=pd.Index(self.times, name="time"))
 
     def parameters_frame(self) -> pd.DataFrame:
         """Parameters as a DataFrame: name, value, whether estimated."""
+        import pandas as pd
+
         return pd.DataFrame(
             {
                 "name": [name_of(p) for p in self.parameters],

@@ -31,8 +31,8 @@ from colloc.store.record import (
     utc,
     validate_record,
 )
+from colloc.store.url import DEFAULT_URL
 
-DEFAULT_URL = "sqlite:///colloc-runs.db"
 #: Settings shown by :meth:`RunStore.list` (dotted keys reach into nested settings).
 DEFAULT_SETTING_COLUMNS = ("num_links", "scheme", "num_nodes", "duration", "sample_rate")
 #: Solver statistics shown by :meth:`RunStore.list`.
