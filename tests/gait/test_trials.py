@@ -531,6 +531,26 @@ def test_cli_runs_the_workflow_and_reports_strides(monkeypatch, capsys, tmp_path
     calls.clear()
     assert main(["gait", "simulate", "--duration", "6", "--points", "7", "--out", str(out)]) == 0
     assert [c[1] for c in calls if c[0] == "design"] == [200, 7]
+    simulate = next(c for c in calls if c[0] == "simulate")
+    assert simulate[3]["torque_noise"] == 0.0  # no motor noise unless asked for
+
+
+def test_cli_passes_motor_and_sensor_noise(monkeypatch, capsys, tmp_path):
+    import json
+
+    from colloc.cli import main
+
+    calls: list = []
+    fake_pipeline(monkeypatch, calls)
+    out = tmp_path / "sim"
+    argv = ["gait", "simulate", "--duration", "6", "--motor-noise", "2.5", "--noise", "0"]
+    assert main([*argv, "--out", str(out)]) == 0, capsys.readouterr()
+    simulate = next(c for c in calls if c[0] == "simulate")
+    assert simulate[3]["torque_noise"] == 2.5
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["settings"]["motor_noise"] == 2.5 and summary["settings"]["noise"] == 0.0
+    assert main(["gait", "simulate", "--motor-noise", "-1", "--out", str(out)]) == 2
+    assert "motor_noise: expected a finite number >= 0" in capsys.readouterr().err
 
 
 def test_joint_isolated_structure_needs_joint_feedback():

@@ -265,3 +265,79 @@ def test_smoothing_rejects_a_window_longer_than_the_record():
     times = np.arange(11) * 0.01
     with pytest.raises(ValueError, match=r"window: 0.5 s spans 51 samples, more than the 11"):
         smooth_with_derivatives(times, np.zeros(11), 0.5)
+
+
+# ---------------------------------------------------------------- gain schedule (direct ID)
+
+
+def _schedule_data(controller, num_samples, cycles, rng, noise=0.0):
+    """Phases over ``cycles`` strides, random feedback, the law's torques (+ noise)."""
+    P, m, ns = controller.num_points, len(controller.inputs), len(controller.feedback)
+    Tstar = rng.normal(0.0, 20.0, (P, m))
+    K = rng.normal(0.0, 50.0, (P, m, ns)) * controller.mask
+    phase = np.linspace(0.0, cycles, num_samples, endpoint=False) + 0.3
+    s = rng.normal(0.0, 0.2, (num_samples, ns))
+    torques = controller.torque(phase, s, Tstar, K) + noise * rng.standard_normal((num_samples, m))
+    return Tstar, K, phase, s, torques
+
+
+@pytest.mark.parametrize("structure", ["full", "joint-isolated"])
+def test_fit_gain_schedule_recovers_an_exact_law(structure):
+    from colloc import GainScheduled
+    from colloc.identify import fit_gain_schedule
+
+    s_syms = dynamicsymbols("s0:4")
+    controller = GainScheduled(5, s_syms, dynamicsymbols("T0:2"), structure=structure)
+    rng = np.random.default_rng(3)
+    Tstar, K, phase, s, torques = _schedule_data(controller, 900, 6.0, rng)
+    fit = fit_gain_schedule(controller, phase, s, torques)
+    np.testing.assert_allclose(fit.Tstar, Tstar, rtol=0, atol=1e-9 * np.abs(Tstar).max())
+    np.testing.assert_allclose(fit.K, K, rtol=0, atol=1e-9 * np.abs(K).max())
+    assert np.all(fit.K[:, ~controller.mask] == 0.0)
+    assert np.abs(fit.residual).max() < 1e-9 * np.abs(torques).max()
+
+
+def test_fit_gain_schedule_residual_is_the_torque_noise():
+    # with noise on the torques only, the least-squares residual has the noise's spread
+    # (reduced by the fitted parameters' share of the samples) and the estimate is unbiased
+    from colloc import GainScheduled
+    from colloc.identify import fit_gain_schedule
+
+    controller = GainScheduled(4, dynamicsymbols("s0:2"), dynamicsymbols("T0:1"))
+    rng = np.random.default_rng(5)
+    errors = []
+    for _ in range(30):
+        Tstar, K, phase, s, torques = _schedule_data(controller, 2000, 20.0, rng, noise=1.0)
+        fit = fit_gain_schedule(controller, phase, s, torques)
+        dof = 2000 - 4 * 3
+        assert np.sum(fit.residual**2) / dof == pytest.approx(1.0, abs=0.12)
+        errors.append(fit.Tstar[:, 0] - Tstar[:, 0])
+    mean, spread = np.mean(errors, axis=0), np.std(errors, axis=0)
+    assert np.all(np.abs(mean) < 4 * spread / np.sqrt(30))
+
+
+def test_fit_gain_schedule_names_points_without_data():
+    from colloc import GainScheduled
+    from colloc.identify import fit_gain_schedule
+
+    controller = GainScheduled(10, dynamicsymbols("s0:2"), dynamicsymbols("T0:1"))
+    rng = np.random.default_rng(1)
+    # less than half a stride: the points in the unvisited half are undetermined
+    phase = np.linspace(0.0, 0.4, 200)
+    s = rng.normal(size=(200, 2))
+    with pytest.raises(ValueError, match=r"input T0 at \d+ of 10 points.*point 6 \(phase 0.600\)"):
+        fit_gain_schedule(controller, phase, s, rng.normal(size=(200, 1)))
+
+
+def test_fit_gain_schedule_rejects_misshapen_and_nonfinite_data():
+    from colloc import GainScheduled
+    from colloc.identify import fit_gain_schedule
+
+    controller = GainScheduled(3, dynamicsymbols("s0:2"), dynamicsymbols("T0:1"))
+    phase = np.linspace(0.0, 3.0, 50)
+    s = np.ones((50, 2))
+    s[4, 1] = np.nan
+    with pytest.raises(ValueError) as info:
+        fit_gain_schedule(controller, phase, s, np.ones((50, 2)))
+    assert "feedback: expected finite values" in str(info.value)
+    assert "inputs: expected shape (50, 1), found (50, 2)" in str(info.value)

@@ -10,14 +10,17 @@ collocation problems converge.
 from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
-from typing import Any
+from dataclasses import dataclass
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 import sympy as sm
-from scipy.signal import savgol_filter
 
 from colloc.model.model import Model
 from colloc.model.symbols import name_of
+
+if TYPE_CHECKING:
+    from colloc.control.gain_scheduled import GainScheduled
 
 
 def direct_estimate(
@@ -125,6 +128,8 @@ def smooth_with_derivatives(
     -------
     value, first derivative, second derivative : ndarray
     """
+    from scipy.signal import savgol_filter  # scipy.signal costs ~0.8 s to import
+
     h = float(np.mean(np.diff(times)))
     if not np.allclose(np.diff(times), h, rtol=1e-6, atol=1e-12):
         raise ValueError("times: expected uniform sampling for Savitzky-Golay smoothing")
@@ -139,3 +144,115 @@ def smooth_with_derivatives(
         savgol_filter(values, deriv=1, **kw),
         savgol_filter(values, deriv=2, **kw),
     )
+
+
+@dataclass
+class ScheduleFit:
+    """A gain schedule fitted by least squares to measured inputs.
+
+    Attributes
+    ----------
+    Tstar : ndarray, shape (P, m)
+    K : ndarray, shape (P, m, n_s)
+        Zero outside the controller's structure.
+    residual : ndarray, shape (N, m)
+        Measured minus fitted inputs.
+    """
+
+    Tstar: np.ndarray
+    K: np.ndarray
+    residual: np.ndarray
+
+
+def fit_gain_schedule(
+    controller: GainScheduled,
+    phase: np.ndarray,
+    feedback: np.ndarray,
+    inputs: np.ndarray,
+) -> ScheduleFit:
+    """Direct identification of ``T(t) = T*(phi) - K(phi) s(t)`` from measured ``T`` and ``s``.
+
+    The law is linear in ``T*`` and ``K`` at the schedule points, with the controller's own
+    periodic linear interpolation in the phase, so one linear least-squares problem per input
+    (its ``T*`` and allowed gains at every point) recovers a controller of this class exactly
+    from exact data. Noise in ``s`` biases it (errors in the regressors), which the
+    collocation identification does not suffer.
+
+    Parameters
+    ----------
+    controller : GainScheduled
+        Gives ``P``, the structure and the interpolation.
+    phase : ndarray, shape (N,)
+        Unwrapped phase in cycles at each sample.
+    feedback : ndarray, shape (N, n_s)
+        Measured ``s``, columns in the order of ``controller.feedback``.
+    inputs : ndarray, shape (N, m)
+        Measured ``T``, columns in the order of ``controller.inputs``.
+
+    Returns
+    -------
+    ScheduleFit
+
+    Raises
+    ------
+    ValueError
+        When the arrays are misshapen or not finite, or the data cannot determine every
+        parameter (phases near some schedule points not visited, or fewer samples there than
+        the point has parameters): the message names the points and what they lack.
+    """
+    P, m, ns = controller.num_points, len(controller.inputs), len(controller.feedback)
+    phase = np.asarray(phase, dtype=float)
+    feedback = np.asarray(feedback, dtype=float)
+    inputs = np.asarray(inputs, dtype=float)
+    N = phase.shape[0] if phase.ndim == 1 else -1
+    problems = []
+    for label, arr, shape in (
+        ("phase", phase, (N,)),
+        ("feedback", feedback, (N, ns)),
+        ("inputs", inputs, (N, m)),
+    ):
+        if arr.shape != shape:
+            problems.append(f"{label}: expected shape {shape}, found {arr.shape}")
+        elif not np.all(np.isfinite(arr)):
+            problems.append(f"{label}: expected finite values, found NaN or inf")
+    if problems:
+        raise ValueError("fit_gain_schedule: " + "; ".join(problems))
+    a, b, w = controller.schedule.bracket(phase)
+    Tstar, K = np.zeros((P, m)), np.zeros((P, m, ns))
+    residual = np.empty_like(inputs)
+    rows = np.arange(N)
+    for i in range(m):
+        allowed = np.flatnonzero(controller.mask[i])
+        width = 1 + allowed.size
+        local = np.hstack([np.ones((N, 1)), -feedback[:, allowed]])
+        design = np.zeros((N, P * width))
+        for point, weight in ((a, 1.0 - w), (b, w)):
+            columns = point[:, None] * width + np.arange(width)
+            design[rows[:, None], columns] += weight[:, None] * local
+        _check_determined(design, width, controller, i)
+        theta, *_ = np.linalg.lstsq(design, inputs[:, i], rcond=None)
+        theta = theta.reshape(P, width)
+        Tstar[:, i] = theta[:, 0]
+        K[:, i, allowed] = theta[:, 1:]
+        residual[:, i] = inputs[:, i] - design @ theta.ravel()
+    return ScheduleFit(Tstar, K, residual)
+
+
+def _check_determined(design: np.ndarray, width: int, controller: GainScheduled, i: int) -> None:
+    # the normal matrix is block tridiagonal in the points; a point is undetermined when its
+    # block column has rank below its width (no data, or too few distinct samples nearby)
+    P = controller.num_points
+    lacking = []
+    for p in range(P):
+        block = design[:, p * width : (p + 1) * width]
+        used = np.any(block != 0.0, axis=1)
+        rank = np.linalg.matrix_rank(block[used]) if used.any() else 0
+        if rank < width:
+            lacking.append(f"point {p} (phase {p / P:.3f}): rank {rank} of {width}")
+    if lacking:
+        raise ValueError(
+            f"fit_gain_schedule: the data do not determine the schedule of input "
+            f"{name_of(controller.inputs[i])} at {len(lacking)} of {P} points "
+            f"({'; '.join(lacking[:5])}{'; ...' if len(lacking) > 5 else ''}): record more "
+            f"strides or use fewer points"
+        )
