@@ -166,27 +166,20 @@ def gait_case(trial: Path, seconds: float):
     import gait_setup
 
     from colloc import Problem, Tracking
-    from colloc.gait.trials import COLUMN_NOISE_GROUP, DEFAULT_NOISE_STD, STATE_COLUMNS
+    from colloc.gait.trials import STATE_COLUMNS
     from colloc.transcription import Midpoint
 
     setup = gait_setup.load(trial)
-    model, gait, gs = setup.dyn.model, setup.dyn.gait, setup.gs
+    model, gs = setup.dyn.model, setup.gs
     t, signals = setup.window(0.0, seconds)
     tracked = list(model.states[:9])
-    std = setup.trial.metadata["noise"]["std"]
-    weights = {}
-    for y in tracked:
-        group = COLUMN_NOISE_GROUP[setup.columns[y]]
-        weights[y] = 1.0 / (std[group] or DEFAULT_NOISE_STD[group]) ** 2 / t.size
+    weights = {y: 1.0 / setup.sigma(y) ** 2 / t.size for y in tracked}
     measured = {y: signals[setup.columns[y]].to_numpy() for y in tracked}
     problem = Problem(
         model.with_outputs(tracked).close_loop(gs),
         t,
         scheme=Midpoint(),
-        known_trajectories={
-            gait.belt_speed: signals["belt_speed"].to_numpy(),
-            gs.phase: signals["controller_phase"].to_numpy(),
-        },
+        known_trajectories=setup.known(signals),
         known_parameters={**setup.dyn.constants, **gs.parameter_values(setup.Tstar, setup.K)},
         objective=Tracking(measured, weights),
     )

@@ -51,7 +51,7 @@ from scipy.interpolate import CubicSpline
 from sympy.physics.mechanics import dynamicsymbols
 
 from colloc import GaussNewtonOptions, IntegralCost, Problem, Tracking
-from colloc.gait.trials import COLUMN_NOISE_GROUP, DEFAULT_NOISE_STD, STATE_COLUMNS
+from colloc.gait.trials import STATE_COLUMNS
 from colloc.identify.direct import smooth_with_derivatives
 from colloc.model.symbols import name_of
 from colloc.solve.ipopt import HESSIAN_CHOICES
@@ -128,7 +128,7 @@ def main() -> None:
     args = parser.parse_args()
 
     setup = gait_setup.load(args.trial)
-    trial, Tstar, K, gs, columns = setup.trial, setup.Tstar, setup.K, setup.gs, setup.columns
+    Tstar, K, gs, columns = setup.Tstar, setup.K, setup.gs, setup.columns
     dyn, gait, model = setup.dyn, setup.dyn.gait, setup.dyn.model
     constants = dict(dyn.constants)
     if args.friction_velocity is not None:
@@ -151,17 +151,11 @@ def main() -> None:
         signals["controller_phase"] = np.interp(fine, t, phase)
         t = fine
     N = t.size
-    known = {
-        gait.belt_speed: signals["belt_speed"].to_numpy(),
-        gs.phase: signals["controller_phase"].to_numpy(),
-    }
-    std = trial.metadata["noise"]["std"]
+    known = setup.known(signals)
     coordinates = model.states[:9]
-    groups = {y: COLUMN_NOISE_GROUP[c] for y, c in columns.items()}
     measured = {y: signals[columns[y]].to_numpy() for y in tracked}
     # a noise-free trial is weighted as if it had the default sensor noise
-    sigma = {y: std[groups[y]] or DEFAULT_NOISE_STD[groups[y]] for y in tracked}
-    weights = {y: 1.0 / sigma[y] ** 2 / N for y in tracked}
+    weights = {y: 1.0 / setup.sigma(y) ** 2 / N for y in tracked}
     objective = Tracking(measured, weights)
     truth = gs.parameter_values(Tstar, K)
     rng = np.random.default_rng(args.seed)

@@ -15,7 +15,7 @@ from colloc.data.columns import TORQUE_COLUMNS
 from colloc.data.trial import Trial
 from colloc.gait.metadata import STATE_SIGNAL_NAMES, controller_from_metadata
 from colloc.gait.orbit import GaitDynamics
-from colloc.gait.trials import STATE_COLUMNS
+from colloc.gait.trials import COLUMN_NOISE_GROUP, DEFAULT_NOISE_STD, STATE_COLUMNS
 from colloc.models.gait2d_params import load_parameters
 
 
@@ -34,6 +34,19 @@ class GaitSetup:
         t = self.trial.time
         keep = (t >= start - 1e-9) & (t <= start + length + 1e-9)
         return t[keep], self.trial.signals[keep]
+
+    def known(self, signals: pd.DataFrame) -> dict:
+        """The known trajectories of the closed loop: belt speed and controller phase."""
+        return {
+            self.dyn.gait.belt_speed: signals["belt_speed"].to_numpy(),
+            self.gs.phase: signals["controller_phase"].to_numpy(),
+        }
+
+    def sigma(self, signal) -> float:
+        """Noise standard deviation of a state or torque's column: the trial's, or the default
+        lab noise when the trial is noise-free."""
+        group = COLUMN_NOISE_GROUP[self.columns[signal]]
+        return self.trial.metadata["noise"]["std"][group] or DEFAULT_NOISE_STD[group]
 
 
 def load(path: Path) -> GaitSetup:

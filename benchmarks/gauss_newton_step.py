@@ -63,10 +63,7 @@ def main() -> None:
         model.with_outputs(tracked).close_loop(gs),
         t,
         scheme=BackwardEuler(),
-        known_trajectories={
-            gait.belt_speed: signals["belt_speed"].to_numpy(),
-            gs.phase: signals["controller_phase"].to_numpy(),
-        },
+        known_trajectories=setup.known(signals),
         known_parameters=dict(setup.dyn.constants),
         objective=Tracking({y: signals[columns[y]].to_numpy() for y in tracked}, weights),
     )
