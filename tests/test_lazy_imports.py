@@ -66,3 +66,20 @@ def test_a_lazy_name_is_the_defining_module_object():
 
     assert colloc.Problem is Problem
     assert colloc.transcription is importlib.import_module("colloc.transcription")
+
+
+def test_help_needs_neither_sympy_nor_casadi():
+    code = (
+        "import sys\nfrom colloc.cli import build_parser\nbuild_parser().format_help()\n"
+        "assert 'sympy' not in sys.modules and 'casadi' not in sys.modules, 'heavy'"
+    )
+    subprocess.run([sys.executable, "-c", code], check=True)
+
+
+def test_scheme_names_of_the_settings_are_the_workflow_schemes():
+    from colloc.identify.pendulum import SCHEMES
+    from colloc.identify.pendulum_settings import SCHEME_NAMES
+
+    assert tuple(SCHEMES) == SCHEME_NAMES
+    names = [cls().name.lower() for cls in SCHEMES.values()]
+    assert names == [n.replace("-", "") for n in SCHEME_NAMES]

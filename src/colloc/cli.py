@@ -55,7 +55,7 @@ def _step_printer(start: float) -> Callable[[str, str], None]:
 def build_parser() -> argparse.ArgumentParser:
     """The argument parser of the ``colloc`` command."""
     from colloc.identify.guesses import GAIN_GUESSES
-    from colloc.identify.pendulum import SCHEMES, PendulumSettings
+    from colloc.identify.pendulum_settings import SCHEME_NAMES, PendulumSettings
     from colloc.store import DEFAULT_URL
 
     defaults = PendulumSettings()
@@ -103,7 +103,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument(
         "--scheme",
         default=defaults.scheme,
-        help=f"collocation scheme: {', '.join(SCHEMES)} (default %(default)s)",
+        help=f"collocation scheme: {', '.join(SCHEME_NAMES)} (default %(default)s)",
     )
     p.add_argument(
         "--hessian", default=defaults.hessian, help="exact or limited-memory (default %(default)s)"

@@ -16,7 +16,8 @@ _EXPORTS = {
     "GAIN_GUESSES": "colloc.identify.guesses",
     "SCHEMES": "colloc.identify.pendulum",
     "PendulumRun": "colloc.identify.pendulum",
-    "PendulumSettings": "colloc.identify.pendulum",
+    "PendulumSettings": "colloc.identify.pendulum_settings",
+    "SCHEME_NAMES": "colloc.identify.pendulum_settings",
     "run_pendulum": "colloc.identify.pendulum",
 }
 
@@ -30,6 +31,7 @@ if TYPE_CHECKING:  # for type checkers; re-exported through __all__
         smooth_with_derivatives,
     )
     from colloc.identify.guesses import GAIN_GUESSES
-    from colloc.identify.pendulum import SCHEMES, PendulumRun, PendulumSettings, run_pendulum
+    from colloc.identify.pendulum import SCHEMES, PendulumRun, run_pendulum
+    from colloc.identify.pendulum_settings import SCHEME_NAMES, PendulumSettings
 
 __all__ = list(_EXPORTS)

@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import time
 from collections.abc import Callable
-from dataclasses import asdict, dataclass, field
+from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
@@ -18,6 +18,7 @@ from colloc.control.lqr import lqr
 from colloc.control.state_feedback import StateFeedback
 from colloc.identify.direct import direct_estimate, smooth_with_derivatives
 from colloc.identify.guesses import GAIN_GUESSES
+from colloc.identify.pendulum_settings import SCHEME_NAMES, PendulumSettings
 from colloc.model.linearize import linearize
 from colloc.model.symbols import name_of
 from colloc.models import pendulum_cart
@@ -28,121 +29,12 @@ from colloc.nlp.uncertainty import ParameterUncertainty, parameter_uncertainty
 from colloc.simulate import ImplicitODE, SumOfSines, add_sensor_noise
 from colloc.transcription import BackwardEuler, HermiteSimpson, Midpoint, Scheme, Trapezoidal
 
-#: Command-line names of the schemes.
-SCHEMES: dict[str, type[Scheme]] = {
-    "midpoint": Midpoint,
-    "backward-euler": BackwardEuler,
-    "trapezoidal": Trapezoidal,
-    "hermite-simpson": HermiteSimpson,
-}
+#: The schemes by their command-line names (:data:`SCHEME_NAMES`).
+SCHEMES: dict[str, type[Scheme]] = dict(
+    zip(SCHEME_NAMES, (Midpoint, BackwardEuler, Trapezoidal, HermiteSimpson), strict=True)
+)
 
 Progress = Callable[[str, str], None]
-
-
-@dataclass(frozen=True)
-class PendulumSettings:
-    """Everything that determines a pendulum identification run.
-
-    Attributes
-    ----------
-    num_links : int
-    duration : float
-        Seconds of simulated data.
-    sample_rate : float
-        Hz; the collocation grid is the sample grid.
-    initial_guess : str
-        One of :data:`colloc.identify.guesses.GAIN_GUESSES`.
-    sensor_noise : bool
-    noise_std_deg : float
-        Standard deviation of the angle noise in degrees.
-    cart_noise_std : float
-        Standard deviation of the cart-position noise in metres (the arc length of
-        ``noise_std_deg`` on a 1 m link by default).
-    force_amplitude : float
-        Amplitude of each of the 12 sines of the cart force, N.
-    scheme : str
-        A key of :data:`SCHEMES`.
-    hessian : str
-        "exact" or "limited-memory".
-    seed : int
-    smoothing_window : float
-        Seconds; Savitzky-Golay window for the state guess and direct identification.
-    check_true_gains : bool
-        Also solve with the gains fixed at the truth, to compare objectives.
-    """
-
-    num_links: int = 1
-    duration: float = 60.0
-    sample_rate: float = 100.0
-    initial_guess: str = "close"
-    sensor_noise: bool = False
-    noise_std_deg: float = 0.25
-    cart_noise_std: float = float(np.deg2rad(0.25))
-    force_amplitude: float = 10.0
-    scheme: str = "midpoint"
-    hessian: str = "exact"
-    seed: int = 0
-    smoothing_window: float = 0.15
-    check_true_gains: bool = False
-
-    @property
-    def num_nodes(self) -> int:
-        """Samples in the record (also the collocation nodes)."""
-        return int(np.floor(self.duration * self.sample_rate + 1e-9)) + 1
-
-    def problems(self) -> list[str]:
-        """Every problem with these settings (empty when they are usable)."""
-        out = []
-        if (
-            isinstance(self.num_links, bool)
-            or not isinstance(self.num_links, int)
-            or self.num_links < 1
-        ):
-            out.append(f"num_links (-n): expected an integer >= 1, found {self.num_links!r}")
-        duration_ok = _finite(self.duration) and self.duration > 0
-        if not duration_ok:
-            out.append(
-                f"duration (-d): expected a positive number of seconds, found {self.duration!r}"
-            )
-        if not (_finite(self.sample_rate) and self.sample_rate > 0):
-            out.append(
-                f"sample_rate (-s): expected a positive rate in Hz, found {self.sample_rate!r}"
-            )
-        elif duration_ok and self.num_nodes < 3:
-            out.append(
-                f"duration (-d) x sample_rate (-s): gives {self.num_nodes} node(s); "
-                "expected at least 3"
-            )
-        if self.initial_guess not in GAIN_GUESSES:
-            out.append(
-                f"initial_guess (-i): expected one of {sorted(GAIN_GUESSES)}, "
-                f"found {self.initial_guess!r}"
-            )
-        if self.scheme not in SCHEMES:
-            out.append(f"scheme: expected one of {sorted(SCHEMES)}, found {self.scheme!r}")
-        if isinstance(self.seed, bool) or not isinstance(self.seed, int) or self.seed < 0:
-            out.append(f"seed: expected an integer >= 0, found {self.seed!r}")
-        if self.hessian not in ("exact", "limited-memory"):
-            out.append(f"hessian: expected 'exact' or 'limited-memory', found {self.hessian!r}")
-        for name in ("noise_std_deg", "cart_noise_std", "force_amplitude", "smoothing_window"):
-            value = getattr(self, name)
-            if not (isinstance(value, int | float) and np.isfinite(value) and value >= 0):
-                out.append(f"{name}: expected a finite number >= 0, found {value!r}")
-        return out
-
-    def validate(self) -> None:
-        """Raise ``ValueError`` listing every problem (before any work starts)."""
-        found = self.problems()
-        if found:
-            raise ValueError("invalid pendulum settings:\n" + "\n".join(f"  - {p}" for p in found))
-
-    def to_dict(self) -> dict[str, Any]:
-        """Plain settings for records and run ids."""
-        return asdict(self)
-
-
-def _finite(value: object) -> bool:
-    return isinstance(value, int | float) and bool(np.isfinite(value))
 
 
 @dataclass
