@@ -39,7 +39,7 @@ class PendulumSettings:
     force_amplitude : float
         Amplitude of each of the 12 sines of the cart force, N.
     scheme : str
-        A key of :data:`SCHEMES`.
+        One of :data:`SCHEME_NAMES` (the workflow maps each to its scheme class).
     hessian : str
         "exact" or "limited-memory".
     seed : int
