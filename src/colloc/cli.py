@@ -7,6 +7,7 @@ import sys
 import time
 from collections.abc import Callable, Sequence
 from pathlib import Path
+from typing import Any
 
 STEPS = (
     "derive",
@@ -50,6 +51,77 @@ def _step_printer(start: float) -> Callable[[str, str], None]:
         print(f"[{time.perf_counter() - start:7.2f} s] {step:<15} {detail}", flush=True)
 
     return progress
+
+
+def _identify_parser(gs: Any, default_url: str) -> None:
+    """``colloc gait identify``: flags with the defaults of ``GaitIdentifySettings``."""
+    from colloc.identify import gait_settings as gi
+
+    d = gi.GaitIdentifySettings(trial=Path("."))
+    idp = gs.add_parser(
+        "identify",
+        help="identify the gain-scheduled controller T*(phi) - K(phi) s of a walking trial by "
+        "direct collocation; fit on its first part, validate on the rest",
+    )
+    idp.add_argument("trial", type=Path, help="trial directory (colloc.data.read_trial)")
+    idp.add_argument(
+        "--fit-fraction",
+        type=_number,
+        default=d.fit_fraction,
+        help="share of the trial to fit, split at the nearest right heel strike "
+        "(default %(default)s)",
+    )
+    idp.add_argument(
+        "--points",
+        type=_positive_int,
+        default=None,
+        help=f"schedule points P (default: the trial's controller's, else {gi.DEFAULT_POINTS})",
+    )
+    idp.add_argument(
+        "--feedback",
+        choices=gi.FEEDBACK_CHOICES,
+        default=d.feedback,
+        help="fed-back signals s: the trial's recorded set (metadata; else joint angles and "
+        "rates) or a named set (default %(default)s)",
+    )
+    idp.add_argument("--structure", choices=gi.STRUCTURES, default=d.structure)
+    idp.add_argument("--scheme", choices=gi.SCHEMES, default=d.scheme)
+    idp.add_argument(
+        "--phase",
+        choices=gi.PHASES,
+        default=d.phase,
+        help="phase: linear between right heel strikes, or the trial's controller_phase "
+        "column (default %(default)s)",
+    )
+    idp.add_argument("--guess", choices=gi.GUESSES, default=d.guess)
+    idp.add_argument(
+        "--track",
+        default=",".join(d.track),
+        help=f"tracked signals, comma-separated from {list(gi.TRACK_CHOICES)} "
+        "(default %(default)s)",
+    )
+    idp.add_argument(
+        "--start", type=_number, default=d.start, help="fit window start, s (default 0)"
+    )
+    idp.add_argument(
+        "--duration",
+        type=_number,
+        default=None,
+        help="fit window length, s (default: up to the split)",
+    )
+    idp.add_argument("--segment-nodes", type=_positive_int, default=d.segment_nodes)
+    idp.add_argument("--max-iter", type=int, default=d.max_iter)
+    idp.add_argument(
+        "--no-simulate",
+        action="store_true",
+        help="skip the forward simulation of the held-out part",
+    )
+    idp.add_argument("--seed", type=_positive_int, default=d.seed, help="random seed")
+    idp.add_argument("--db", default=default_url, help="results database URL")
+    idp.add_argument("--no-store", action="store_true", help="do not store the run")
+    idp.add_argument("--out", type=Path, default=Path("gait-identification"), help="figures")
+    idp.add_argument("--no-plots", action="store_true", help="do not draw figures")
+    idp.add_argument("--json", type=Path, default=None, help="write a summary here")
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -138,7 +210,9 @@ def build_parser() -> argparse.ArgumentParser:
     )
     p.add_argument("--json", type=Path, default=None, help="write a machine-readable summary here")
 
-    g = sub.add_parser("gait", help="planar walking: synthetic perturbed-walking trials")
+    g = sub.add_parser(
+        "gait", help="planar walking: synthetic perturbed-walking trials, controller identification"
+    )
     gs = g.add_subparsers(dest="gait_command", required=True)
     sim = gs.add_parser(
         "simulate",
@@ -200,6 +274,8 @@ def build_parser() -> argparse.ArgumentParser:
         help="factor on the record's speed deviations (default %(default)s)",
     )
 
+    _identify_parser(gs, DEFAULT_URL)
+
     r = sub.add_parser("runs", help="list, show, export or delete stored runs")
     r.add_argument("--db", default=DEFAULT_URL, help="results database URL (default %(default)s)")
     rs = r.add_subparsers(dest="runs_command", required=True)
@@ -224,8 +300,8 @@ def _pendulum(args: argparse.Namespace) -> int:
         pendulum_summary,
         save_pendulum_animation,
         save_pendulum_plots,
-        write_json_atomic,
     )
+    from colloc.identify.summaries import write_json_atomic
 
     settings = PendulumSettings(
         num_links=args.numlinks,
@@ -320,7 +396,89 @@ def _runs(args: argparse.Namespace) -> int:
     return 0
 
 
+def _gait_identify(args: argparse.Namespace) -> int:
+    from colloc.identify.gait_settings import GaitIdentifySettings
+
+    settings = GaitIdentifySettings(
+        trial=args.trial,
+        fit_fraction=args.fit_fraction,
+        points=args.points,
+        feedback=args.feedback,
+        structure=args.structure,
+        scheme=args.scheme,
+        phase=args.phase,
+        guess=args.guess,
+        track=tuple(t.strip() for t in args.track.split(",") if t.strip()),
+        start=args.start,
+        duration=args.duration,
+        segment_nodes=args.segment_nodes,
+        max_iter=args.max_iter,
+        simulate_validation=not args.no_simulate,
+        seed=args.seed,
+    )
+    if _report_problems("colloc gait identify", settings.problems()):
+        return 2
+    from colloc.identify.gait import identify_gait
+    from colloc.identify.gait_outputs import (
+        gait_record,
+        gait_run_id,
+        gait_summary,
+        save_gait_plots,
+    )
+    from colloc.identify.summaries import write_json_atomic
+
+    store = None
+    if not args.no_store:
+        from colloc.store import RunStore  # SQLAlchemy and pandas: only when storing
+
+        store = RunStore(args.db)  # a bad URL fails before any work
+    start = time.perf_counter()
+    progress = _step_printer(start)
+
+    def iteration(row: dict[str, float]) -> None:
+        print(
+            f"{'':12}{'':16}iter {int(row['iteration']):3d}  objective {row['objective']:.6e}  "
+            f"infeasibility {row['infeasibility']:.2e}",
+            flush=True,
+        )
+
+    run = identify_gait(settings, progress=progress, iterations=iteration)
+    run_id = gait_run_id(run)
+    summary = gait_summary(run, run_id)
+    print(
+        f"\nsolver: {run.solver['status']} after {run.solver['iterations']} iterations "
+        f"(objective {run.solver['objective']:.6g}, largest defect "
+        f"{run.solver['constraint_violation']:.2e})"
+    )
+    for key in ("K_relative_error", "Tstar_relative_error", "direct_K_relative_error"):
+        if summary[key] is not None:
+            print(f"{key}: {summary[key]:.2%}")
+    if summary["fraction_within_3se"] is not None:
+        print(f"entries within 3 SE of the truth: {summary['fraction_within_3se']:.1%}")
+    print("held-out torque VAF (collocation / direct):")
+    vaf = run.validation["torque_vaf"]
+    for joint in vaf["collocation"]:
+        print(f"  {joint:<12} {vaf['collocation'][joint]:8.4f} {vaf['direct'][joint]:8.4f}")
+    print(f"held-out forward simulation: {run.validation['message']}")
+    for note in run.notes:
+        print(f"note: {note}")
+    if store is not None:
+        progress("store", f"run {run_id[:12]} -> {args.db}")
+        store.add(gait_record(run, run_id), replace=True)
+    if not args.no_plots:
+        progress("plot", f"figures -> {args.out}")
+        for path in save_gait_plots(run, args.out):
+            print(f"  {path}")
+    if args.json is not None:
+        write_json_atomic(summary, args.json)
+        print(f"summary -> {args.json}")
+    walked = run.validation.get("walks") is not False
+    return 0 if run.solver["success"] and walked else 1
+
+
 def _gait(args: argparse.Namespace) -> int:
+    if args.gait_command == "identify":
+        return _gait_identify(args)
     from colloc.gait.workflow import GaitSimulationSettings, simulate_trial
 
     # Flags left out take the settings' defaults (defined once, in colloc.gait.settings).

@@ -174,14 +174,19 @@ def simulate_walking(
     initial_state: np.ndarray | None = None,
     feedback: np.ndarray | None = None,
     adaptive_rate: bool = False,
+    stride_duration: float | None = None,
+    phase_at_strike: float | None = None,
+    initial_phase: float = 0.0,
 ) -> ClosedLoopRecord:
     """Simulate walking on a treadmill under the gain-scheduled controller.
 
     Parameters
     ----------
-    cycle : WalkingCycle
+    cycle : WalkingCycle or None
         The periodic cycle the controller was designed for (initial state at phase 0, first
-        stride duration, belt speed when ``belt_speed`` is None).
+        stride duration, belt speed when ``belt_speed`` is None). None for a controller
+        identified from a trial: then ``belt_speed``, ``initial_state``,
+        ``hip_height_range``, ``stride_duration`` and ``phase_at_strike`` are required.
     Tstar : ndarray, shape (P, 6)
     K : ndarray, shape (P, 6, n_s)
         The controller schedule (e.g. from :func:`colloc.gait.design.design_controller`).
@@ -215,6 +220,15 @@ def simulate_walking(
         times the cycle's) instead of the cycle's. Off by default: measured on a 60-node
         cycle, a stride 1 % long made the next schedule 1 % slower, and the strides grew by
         1.5 % each until the walker fell after 8 strides; at the fixed rate it walks on.
+    stride_duration : float, optional
+        [s] at whose rate ``phi`` rises; default the cycle's duration.
+    phase_at_strike : float, optional
+        ``phi_0`` in ``[0, 1)``, the phase the controller resets to at a detected right heel
+        strike; default where the detector fires on the cycle
+        (:func:`colloc.gait.strikes.strike_phase`); 0 for a controller scheduled on the
+        phase a gait lab computes from heel strikes.
+    initial_phase : float
+        ``phi`` at time 0 (default 0, the cycle's start).
 
     Returns
     -------
@@ -227,6 +241,23 @@ def simulate_walking(
     """
     Tstar, K = np.asarray(Tstar, float), np.asarray(K, float)
     _check(Tstar, K, duration, sample_rate, torque_noise, belt_speed)
+    if cycle is None:
+        missing = [
+            name
+            for name, value in (
+                ("belt_speed", belt_speed),
+                ("initial_state", initial_state),
+                ("hip_height_range", hip_height_range),
+                ("stride_duration", stride_duration),
+                ("phase_at_strike", phase_at_strike),
+            )
+            if value is None
+        ]
+        if missing:
+            raise ValueError(f"cycle: None needs {missing} given instead, found them missing")
+    nominal = float(cycle.duration if stride_duration is None else stride_duration)
+    if not (np.isfinite(nominal) and nominal > 0):
+        raise ValueError(f"stride_duration: expected a positive number, found {nominal}")
     dyn = dynamics or GaitDynamics.build()
     h = 1.0 / sample_rate
     num = int(round(duration * sample_rate)) + 1
@@ -243,8 +274,8 @@ def simulate_walking(
     fb = JOINT_STATES if feedback is None else np.asarray(feedback, dtype=int)
     if K.shape[2] != fb.size:
         raise ValueError(f"K: has {K.shape[2]} gain columns but feedback names {fb.size} states")
-    phi0 = strike_phase(cycle, threshold)
-    window = _schedule_window(Tstar.shape[0], CHUNK_SAMPLES, h, float(cycle.duration))
+    phi0 = strike_phase(cycle, threshold) if phase_at_strike is None else float(phase_at_strike)
+    window = _schedule_window(Tstar.shape[0], CHUNK_SAMPLES, h, nominal)
     integ, torque_fn = _closed_loop_integrator(
         dyn, Tstar.shape[0], h, CHUNK_SAMPLES, rtol, fb, phi0, window
     )
@@ -254,7 +285,8 @@ def simulate_walking(
     states[0] = x0
     phase = np.zeros(num)
     torques = np.zeros((num, NUM_TORQUES))
-    stride_start, stride_duration, stride_count = 0.0, float(cycle.duration), 0
+    stride_duration, stride_count = nominal, 0
+    stride_start = -float(initial_phase) * stride_duration
     strikes: dict[str, list[float]] = {"right": [], "left": []}
     fy = np.zeros((num, 2))
     fy[0] = _foot_forces(dyn, x0, v_all[0])
@@ -305,7 +337,7 @@ def simulate_walking(
                     # The first strike ends a stride that began before the record did.
                     measured = crossing - strikes[side][-2] if len(strikes[side]) > 1 else np.inf
                     if adaptive_rate:
-                        stride_duration = _next_duration(measured, cycle.duration)
+                        stride_duration = _next_duration(measured, nominal)
                     # stride_start: when phi was 0, so that phi = phi0 at the crossing.
                     stride_start = crossing - phi0 * stride_duration
                     stride_count += 1

@@ -2,15 +2,12 @@
 
 from __future__ import annotations
 
-import json
-import os
-import tempfile
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-import numpy as np
-
 from colloc.identify.pendulum import PendulumRun
+from colloc.identify.summaries import finite_or_none as _num
+from colloc.identify.summaries import plain as _plain
 from colloc.store import digest_arrays, package_versions, run_id_for
 
 if TYPE_CHECKING:
@@ -145,31 +142,3 @@ def save_pendulum_animation(run: PendulumRun, path: Path) -> Path:
 
     n = run.settings.num_links
     return animate_pendulum_cart(run.times, run.identified_states[:, : n + 1], run.lengths, path)
-
-
-def write_json_atomic(data: dict[str, Any], path: Path) -> Path:
-    """Write JSON through a temporary file so a failure never leaves half a file."""
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(dir=path.parent, suffix=".tmp")
-    with os.fdopen(fd, "w", encoding="utf-8") as fh:
-        json.dump(data, fh, indent=2)
-    os.replace(tmp, path)
-    return path
-
-
-def _num(value: float) -> float | None:
-    return None if value is None or not np.isfinite(value) else float(value)
-
-
-def _plain(value: Any) -> Any:
-    # JSON-friendly copy: NaN/inf become None, NumPy scalars become Python numbers.
-    if isinstance(value, dict):
-        return {str(k): _plain(v) for k, v in value.items()}
-    if isinstance(value, list | tuple):
-        return [_plain(v) for v in value]
-    if isinstance(value, np.generic):
-        value = value.item()
-    if isinstance(value, float) and not np.isfinite(value):
-        return None
-    return value

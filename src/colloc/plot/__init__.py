@@ -14,6 +14,9 @@ _EXPORTS = {
     "plot_pendulum_cart": "colloc.plot.animation",
     "PlotInputError": "colloc.plot.common",
     "save_figure": "colloc.plot.common",
+    "plot_angle_comparison": "colloc.plot.gait_identification",
+    "plot_schedule": "colloc.plot.gait_identification",
+    "plot_torque_vaf": "colloc.plot.gait_identification",
     "link_positions": "colloc.plot.geometry",
     "plot_constraint_violations": "colloc.plot.pendulum",
     "plot_force": "colloc.plot.pendulum",
@@ -27,6 +30,11 @@ __getattr__, __dir__ = lazy_exports(__name__, _EXPORTS, globals())
 if TYPE_CHECKING:  # for type checkers; re-exported through __all__
     from colloc.plot.animation import animate_pendulum_cart, frame_coordinates, plot_pendulum_cart
     from colloc.plot.common import PlotInputError, save_figure
+    from colloc.plot.gait_identification import (
+        plot_angle_comparison,
+        plot_schedule,
+        plot_torque_vaf,
+    )
     from colloc.plot.geometry import link_positions
     from colloc.plot.pendulum import (
         plot_constraint_violations,

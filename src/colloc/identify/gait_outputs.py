@@ -1,0 +1,166 @@
+"""Turn a :class:`GaitIdentification` into a run id, a JSON summary, a stored record and
+figures."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from colloc.identify.gait import JOINT_NAMES, GaitIdentification
+from colloc.identify.summaries import plain
+from colloc.store import package_versions, run_id_for
+
+if TYPE_CHECKING:
+    from colloc.store.record import RunRecord
+
+#: ``kind`` of a gait identification in the results store.
+KIND = "gait-identify"
+
+
+def gait_run_id(run: GaitIdentification) -> str:
+    """A hash of the settings (the trial's path left out), the trial's data and versions."""
+    settings = {k: v for k, v in run.settings.to_dict().items() if k != "trial"}
+    return run_id_for(settings, run.data_digest, package_versions())
+
+
+def gait_summary(run: GaitIdentification, run_id: str) -> dict[str, Any]:
+    """The machine-readable summary written by ``colloc gait identify --json``."""
+    v = run.validation
+    return plain(
+        {
+            "run_id": run_id,
+            "settings": run.settings.to_dict(),
+            "points": run.points,
+            "feedback": run.feedback,
+            "window": list(run.window),
+            "split_time": run.split_time,
+            **run.metrics,
+            "validation": {
+                "torque_vaf": v["torque_vaf"],
+                "walks": v.get("walks"),
+                "simulation": v.get("message"),
+                "simulated_seconds": v.get("simulated_seconds"),
+                "angle_rms": v.get("angle_rms_deg"),
+                "angle_vaf": v.get("angle_vaf"),
+            },
+            "status": run.solver["status"],
+            "success": run.solver["success"],
+            "iterations": run.solver["iterations"],
+            "objective": run.solver["objective"],
+            "constraint_violation": run.solver["constraint_violation"],
+            "problem": run.problem_size,
+            "times": run.timings,
+            "peak_rss_mb": run.peak_rss_mb,
+            "notes": run.notes,
+        }
+    )
+
+
+def gait_record(run: GaitIdentification, run_id: str) -> RunRecord:
+    """The database record: settings, statistics, solver log, every T* and K entry, arrays."""
+    from colloc.store.record import ParameterRow, RunRecord  # pandas: only when storing
+
+    rows = []
+    est, truth = run.collocation, run.truth
+    se_T = est.Tstar_se if est.Tstar_se is not None else np.full_like(est.Tstar, np.nan)
+    se_K = est.K_se if est.K_se is not None else np.full_like(est.K, np.nan)
+    for p in range(run.points):
+        for j, joint in enumerate(JOINT_NAMES):
+            known = None if truth is None else float(truth.Tstar[p, j])
+            rows.append(
+                ParameterRow(
+                    f"Tstar[{p}][{joint}]", known, float(est.Tstar[p, j]), _finite(se_T[p, j])
+                )
+            )
+            for i, signal in enumerate(run.feedback):
+                if run.mask[j, i]:
+                    known = None if truth is None else float(truth.K[p, j, i])
+                    rows.append(
+                        ParameterRow(
+                            f"K[{p}][{joint}][{signal}]",
+                            known,
+                            float(est.K[p, j, i]),
+                            _finite(se_K[p, j, i]),
+                        )
+                    )
+    summary = gait_summary(run, run_id)
+    statistics = {k: v for k, v in summary.items() if k not in ("settings", "run_id")}
+    arrays = {
+        "times": run.times,
+        "measured_angles": run.measured,
+        "fitted_angles": run.fitted,
+        "Tstar": est.Tstar,
+        "K": est.K,
+        "direct_Tstar": run.direct.Tstar,
+        "direct_K": run.direct.K,
+    }
+    if est.K_se is not None and est.Tstar_se is not None:
+        arrays.update(Tstar_se=est.Tstar_se, K_se=est.K_se)
+    if "simulated_angles" in run.validation:
+        arrays.update(
+            validation_times=run.validation["times"],
+            validation_measured_angles=run.validation["measured_angles"],
+            validation_simulated_angles=run.validation["simulated_angles"],
+        )
+    return RunRecord(
+        run_id=run_id,
+        kind=KIND,
+        settings=run.settings.to_dict(),
+        versions=package_versions(),
+        statistics=statistics,
+        ipopt_log=run.solver["log"],
+        parameters=rows,
+        arrays=arrays,
+    )
+
+
+def save_gait_plots(
+    run: GaitIdentification, directory: Path, formats: tuple[str, ...] = ("png", "svg")
+) -> list[Path]:
+    """K(phi) (as its Frobenius norm per joint row), T*(phi) with ±2 SE bands and the truth;
+    measured vs fitted angles; held-out torque VAF; the held-out forward simulation."""
+    from colloc.plot import (  # matplotlib: only when figures are asked for
+        plot_angle_comparison,
+        plot_schedule,
+        plot_torque_vaf,
+        save_figure,
+    )
+
+    est = run.collocation
+    tstar = {"collocation": (est.Tstar, est.Tstar_se), "direct": (run.direct.Tstar, None)}
+    gains = {"collocation": (_row_norm(est.K), None), "direct": (_row_norm(run.direct.K), None)}
+    if run.truth is not None:
+        tstar["truth"] = (run.truth.Tstar, None)
+        gains["truth"] = (_row_norm(run.truth.K), None)
+    figures = {
+        "tstar_schedule": plot_schedule(tstar, JOINT_NAMES, "T*(phi) [N m], ±2 SE"),
+        "gain_schedule": plot_schedule(gains, JOINT_NAMES, "||K_j(phi)|| per torque row"),
+        "fitted_angles": plot_angle_comparison(
+            run.times, run.measured, run.fitted, JOINT_NAMES, "fit window", "identified"
+        ),
+        "torque_vaf": plot_torque_vaf(run.validation["torque_vaf"], "held-out torque VAF"),
+    }
+    v = run.validation
+    if "simulated_angles" in v:
+        figures["validation_walk"] = plot_angle_comparison(
+            v["times"],
+            v["measured_angles"],
+            v["simulated_angles"],
+            JOINT_NAMES,
+            f"held-out part, forward simulation: {v['message']}",
+            "simulated",
+        )
+    paths: list[Path] = []
+    for stem, fig in figures.items():
+        paths += save_figure(fig, directory, stem, formats)
+    return paths
+
+
+def _row_norm(K: np.ndarray) -> np.ndarray:
+    return np.linalg.norm(K, axis=2)
+
+
+def _finite(value: float) -> float | None:
+    return float(value) if np.isfinite(value) else None

@@ -1,0 +1,165 @@
+"""What determines a gait controller identification, checked before any work starts.
+
+Kept apart from the workflow (:mod:`colloc.identify.gait`) so that the command line can show
+its defaults without importing SymPy, CasADi or SciPy.
+"""
+
+from __future__ import annotations
+
+from dataclasses import asdict, dataclass
+from pathlib import Path
+from typing import Any
+
+#: ``--phase``: linear between right heel strikes (a gait lab's phase), or the trial's own
+#: ``controller_phase`` column (a synthetic trial's true phase).
+PHASES = ("heel-strikes", "controller")
+#: ``--feedback``: the trial's recorded set, or a named set of fed-back states.
+FEEDBACK_CHOICES = ("metadata", "joints", "joints+trunk", "all")
+#: ``--track``: the measured signals the objective tracks.
+TRACK_CHOICES = ("angles", "trunk", "rates", "torques")
+#: Default tracked signals: what a gait lab measures, the joint torques from inverse dynamics
+#: included. Without the torques the data cannot identify the default controller: the
+#: Cramer-Rao bound of K over 30 s of the default trial is 36 % with them and 310 % from
+#: positions and rates alone (benchmarks/gait_information.py).
+DEFAULT_TRACK = ("angles", "trunk", "torques")
+#: Controller parameter guesses: direct identification (least squares of the measured
+#: torques on the measured feedback), or all zero.
+GUESSES = ("direct", "zero")
+SCHEMES = ("midpoint", "backward-euler")
+STRUCTURES = ("full", "joint-isolated")
+#: Schedule points when neither ``points`` nor the trial's metadata give them.
+DEFAULT_POINTS = 20
+
+
+@dataclass(frozen=True)
+class GaitIdentifySettings:
+    """Everything that determines a gait controller identification.
+
+    Attributes
+    ----------
+    trial : Path
+        Trial directory (:func:`colloc.data.read_trial`).
+    fit_fraction : float
+        Share of the trial before the split (at the right heel strike nearest to it).
+    points : int or None
+        Schedule points ``P``; None: the trial's controller's when its metadata records one,
+        else :data:`DEFAULT_POINTS`.
+    feedback : str
+        One of :data:`FEEDBACK_CHOICES`; ``metadata``: the set the trial's metadata records,
+        else the six joint angles and six joint rates.
+    structure : str
+        ``full`` or ``joint-isolated`` (each torque from its own joint's angle and rate).
+    scheme : str
+        ``midpoint`` or ``backward-euler``.
+    phase : str
+        One of :data:`PHASES`.
+    guess : str
+        One of :data:`GUESSES`.
+    track : tuple of str
+        Signals tracked by the objective, from :data:`TRACK_CHOICES`.
+    start : float
+        Seconds from the trial's start to the fit window (snapped to the next right heel
+        strike).
+    duration : float or None
+        Seconds of the fit window (ending at the last right heel strike inside it); None: up
+        to the split.
+    segment_nodes : int
+        Nodes per condensing segment of the Gauss-Newton solver.
+    max_iter : int
+        Solver iterations.
+    smoothing_window : float
+        Seconds of the Savitzky-Golay window that differentiates measured positions into rates
+        (start and direct identification) for a trial without rate columns.
+    simulate_validation : bool
+        Walk the identified controller through the held-out part (forward simulation).
+    seed : int
+        Seeds any random draw (none in the default settings; recorded with the run).
+    """
+
+    trial: Path
+    fit_fraction: float = 0.75
+    points: int | None = None
+    feedback: str = "metadata"
+    structure: str = "full"
+    scheme: str = "midpoint"
+    phase: str = "heel-strikes"
+    guess: str = "direct"
+    track: tuple[str, ...] = DEFAULT_TRACK
+    start: float = 0.0
+    duration: float | None = None
+    segment_nodes: int = 50
+    max_iter: int = 100
+    smoothing_window: float = 0.05
+    simulate_validation: bool = True
+    seed: int = 0
+
+    def problems(self) -> list[str]:
+        """Every problem with the settings (empty when valid); the trial is not read."""
+        out = []
+        if not isinstance(self.trial, str | Path):
+            out.append(f"trial: expected a directory path, found {self.trial!r}")
+        elif not Path(self.trial).is_dir():
+            out.append(f"trial: expected an existing directory, found {str(self.trial)!r}")
+        if not (_number(self.fit_fraction) and 0 < self.fit_fraction < 1):
+            out.append(f"fit_fraction: expected a number in (0, 1), found {self.fit_fraction!r}")
+        if self.points is not None and not (_integer(self.points) and self.points >= 2):
+            out.append(f"points: expected an integer >= 2, found {self.points!r}")
+        for name, choices in (
+            ("feedback", FEEDBACK_CHOICES),
+            ("structure", STRUCTURES),
+            ("scheme", SCHEMES),
+            ("phase", PHASES),
+            ("guess", GUESSES),
+        ):
+            if getattr(self, name) not in choices:
+                out.append(
+                    f"{name}: expected one of {list(choices)}, found {getattr(self, name)!r}"
+                )
+        track = self.track
+        if (
+            not isinstance(track, tuple)
+            or not track
+            or any(t not in TRACK_CHOICES for t in track)
+            or len(set(track)) != len(track)
+        ):
+            out.append(
+                f"track: expected distinct names from {list(TRACK_CHOICES)}, found {track!r}"
+            )
+        elif not {"angles", "trunk"} & set(track):
+            out.append(
+                f"track: expected 'angles' or 'trunk' among the tracked signals, found {track}"
+            )
+        if not (_number(self.start) and self.start >= 0):
+            out.append(f"start: expected a number >= 0, found {self.start!r}")
+        if self.duration is not None and not (_number(self.duration) and self.duration > 0):
+            out.append(f"duration: expected a number > 0 or None, found {self.duration!r}")
+        if not (_integer(self.segment_nodes) and self.segment_nodes >= 2):
+            out.append(f"segment_nodes: expected an integer >= 2, found {self.segment_nodes!r}")
+        if not (_integer(self.max_iter) and self.max_iter >= 0):
+            out.append(f"max_iter: expected an integer >= 0, found {self.max_iter!r}")
+        if not (_number(self.smoothing_window) and self.smoothing_window > 0):
+            out.append(f"smoothing_window: expected seconds > 0, found {self.smoothing_window!r}")
+        if not (_integer(self.seed) and self.seed >= 0):
+            out.append(f"seed: expected an integer >= 0, found {self.seed!r}")
+        return out
+
+    def validate(self) -> None:
+        """Raise ``ValueError`` listing every problem of :meth:`problems`."""
+        found = self.problems()
+        if found:
+            raise ValueError("gait identification settings: " + "; ".join(found))
+
+    def to_dict(self) -> dict[str, Any]:
+        """Plain values (paths as strings, tuples as lists), for JSON and the run id."""
+        out = asdict(self)
+        out["trial"] = str(self.trial)
+        out["track"] = list(self.track)
+        return out
+
+
+def _number(value: object) -> bool:
+    return isinstance(value, int | float) and not isinstance(value, bool) and value == value
+
+
+def _integer(value: object) -> bool:
+    return isinstance(value, int) and not isinstance(value, bool)

@@ -1,0 +1,117 @@
+"""Figures of a gait controller identification: schedules with error bands, fits, validation."""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+
+import numpy as np
+from matplotlib.figure import Figure
+
+
+def plot_schedule(
+    estimates: Mapping[str, tuple[np.ndarray, np.ndarray | None]],
+    joint_names: Sequence[str],
+    title: str,
+    *,
+    band: float = 2.0,
+) -> Figure:
+    """One panel per joint: ``estimates`` (label -> values (P, 6), standard errors or None)
+    against the schedule phase, with ``±band`` standard-error bands where given.
+
+    Parameters
+    ----------
+    estimates : mapping
+        Label -> (values, standard errors or None); values of shape (P, len(joint_names)).
+    joint_names : sequence of str
+    title : str
+    band : float
+        Width of the error band in standard errors.
+
+    Returns
+    -------
+    Figure
+    """
+    fig = Figure(figsize=(11, 6), layout="constrained")
+    axes = fig.subplots(2, (len(joint_names) + 1) // 2, sharex=True).ravel()
+    for label, (values, se) in estimates.items():
+        values = np.asarray(values, dtype=float)
+        phase = np.arange(values.shape[0] + 1) / values.shape[0]
+        for j, ax in enumerate(axes[: len(joint_names)]):
+            closed = np.r_[values[:, j], values[0, j]]
+            (line,) = ax.plot(phase, closed, marker=".", label=label)
+            if se is not None:
+                width = band * np.r_[se[:, j], se[0, j]]
+                ax.fill_between(
+                    phase, closed - width, closed + width, alpha=0.2, color=line.get_color()
+                )
+    for j, ax in enumerate(axes[: len(joint_names)]):
+        ax.set_title(joint_names[j])
+        ax.set_xlabel("phase")
+    axes[0].legend(fontsize="small")
+    fig.suptitle(title)
+    return fig
+
+
+def plot_angle_comparison(
+    times: np.ndarray,
+    measured: np.ndarray,
+    model: np.ndarray,
+    joint_names: Sequence[str],
+    title: str,
+    model_label: str,
+) -> Figure:
+    """Measured and modelled joint angles [deg] against time, one panel per joint.
+
+    Parameters
+    ----------
+    times : ndarray, shape (N,)
+    measured, model : ndarray, shape (N, k) and (M, k), M <= N
+        Angles [rad]; ``model`` may end early (a simulation that fell).
+    joint_names : sequence of str
+    title, model_label : str
+
+    Returns
+    -------
+    Figure
+    """
+    fig = Figure(figsize=(11, 7), layout="constrained")
+    axes = fig.subplots(len(joint_names), 1, sharex=True)
+    n = np.asarray(model).shape[0]
+    for j, ax in enumerate(np.atleast_1d(axes)):
+        ax.plot(times, np.degrees(measured[:, j]), color="0.6", lw=1, label="measured")
+        ax.plot(times[:n], np.degrees(model[:, j]), lw=1, label=model_label)
+        ax.set_ylabel(f"{joint_names[j]}\n[deg]", fontsize="small")
+    np.atleast_1d(axes)[0].legend(fontsize="small", loc="upper right")
+    np.atleast_1d(axes)[-1].set_xlabel("time [s]")
+    fig.suptitle(title)
+    return fig
+
+
+def plot_torque_vaf(vaf: Mapping[str, Mapping[str, float]], title: str) -> Figure:
+    """Held-out torque VAF per joint, one bar group per controller.
+
+    Parameters
+    ----------
+    vaf : mapping
+        Controller label -> joint -> VAF.
+    title : str
+
+    Returns
+    -------
+    Figure
+    """
+    fig = Figure(figsize=(8, 4), layout="constrained")
+    ax = fig.subplots()
+    labels = list(vaf)
+    joints = list(next(iter(vaf.values())))
+    width = 0.8 / max(len(labels), 1)
+    for i, label in enumerate(labels):
+        x = np.arange(len(joints)) + i * width
+        ax.bar(x, [vaf[label][j] for j in joints], width, label=label)
+    ax.set_xticks(np.arange(len(joints)) + 0.4 - width / 2, joints, rotation=20)
+    ax.set_ylim(min(0.0, *(min(v.values()) for v in vaf.values())), 1.0)
+    ax.axhline(0.95, color="k", lw=0.8, ls="--")
+    ax.set_ylabel("VAF")
+    ax.legend(fontsize="small")
+    ax.set_title(title)
+    return fig

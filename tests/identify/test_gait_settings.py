@@ -1,0 +1,48 @@
+"""Gait identification settings: every bad field reported at once, before any work."""
+
+from pathlib import Path
+
+import pytest
+
+from colloc.identify.gait_settings import DEFAULT_TRACK, GaitIdentifySettings
+
+
+def test_defaults_are_valid_and_plain(tmp_path):
+    settings = GaitIdentifySettings(trial=tmp_path)
+    assert settings.problems() == []
+    plain = settings.to_dict()
+    assert plain["trial"] == str(tmp_path) and plain["track"] == list(DEFAULT_TRACK)
+
+
+def test_every_bad_field_is_named(tmp_path):
+    settings = GaitIdentifySettings(
+        trial=tmp_path / "missing",
+        fit_fraction=1.5,
+        points=1,
+        feedback="elbows",
+        structure="diagonal",
+        scheme="rk4",
+        phase="moon",
+        guess="lucky",
+        track=("angles", "angles"),
+        start=-1.0,
+        duration=0.0,
+        segment_nodes=1,
+        max_iter=-1,
+        smoothing_window=0.0,
+        seed=-3,
+    )
+    found = settings.problems()
+    for name in (
+        "trial", "fit_fraction", "points", "feedback", "structure", "scheme", "phase",
+        "guess", "track", "start", "duration", "segment_nodes", "max_iter",
+        "smoothing_window", "seed",
+    ):  # fmt: skip
+        assert any(line.startswith(f"{name}:") for line in found), name
+    with pytest.raises(ValueError, match="fit_fraction"):
+        settings.validate()
+
+
+def test_track_needs_a_kinematic_signal(tmp_path):
+    found = GaitIdentifySettings(trial=Path(tmp_path), track=("torques",)).problems()
+    assert found and "angles" in found[0]
