@@ -124,6 +124,25 @@ def _identify_parser(gs: Any, default_url: str) -> None:
     idp.add_argument("--json", type=Path, default=None, help="write a summary here")
 
 
+def _open_store(args: argparse.Namespace) -> Any:
+    """The results store of ``--db``, opened before any work so a bad URL fails fast; None
+    with ``--no-store``."""
+    if args.no_store:
+        return None
+    from colloc.store import RunStore  # SQLAlchemy and pandas: only when storing
+
+    return RunStore(args.db)
+
+
+def _print_iteration(row: dict[str, float]) -> None:
+    """One line per solver iteration, under the step lines."""
+    print(
+        f"{'':12}{'':16}iter {int(row['iteration']):3d}  objective {row['objective']:.6e}  "
+        f"infeasibility {row['infeasibility']:.2e}",
+        flush=True,
+    )
+
+
 def build_parser() -> argparse.ArgumentParser:
     """The argument parser of the ``colloc`` command."""
     from colloc.identify.guesses import GAIN_GUESSES
@@ -318,23 +337,10 @@ def _pendulum(args: argparse.Namespace) -> int:
     )
     if _report_problems("colloc pendulum", settings.problems()):
         return 2
-    # Open the database before any work so a bad URL fails fast.
-    store = None
-    if not args.no_store:
-        from colloc.store import RunStore  # SQLAlchemy and pandas: only when storing
-
-        store = RunStore(args.db)
+    store = _open_store(args)
     start = time.perf_counter()
     progress = _step_printer(start)
-
-    def iteration(row: dict[str, float]) -> None:
-        print(
-            f"{'':12}{'':16}iter {int(row['iteration']):3d}  objective {row['objective']:.6e}  "
-            f"infeasibility {row['infeasibility']:.2e}",
-            flush=True,
-        )
-
-    run = run_pendulum(settings, progress=progress, iterations=iteration)
+    run = run_pendulum(settings, progress=progress, iterations=_print_iteration)
     run_id = pendulum_run_id(run)
     stats = run.solution.stats
     print(
@@ -427,22 +433,10 @@ def _gait_identify(args: argparse.Namespace) -> int:
     )
     from colloc.identify.summaries import write_json_atomic
 
-    store = None
-    if not args.no_store:
-        from colloc.store import RunStore  # SQLAlchemy and pandas: only when storing
-
-        store = RunStore(args.db)  # a bad URL fails before any work
+    store = _open_store(args)
     start = time.perf_counter()
     progress = _step_printer(start)
-
-    def iteration(row: dict[str, float]) -> None:
-        print(
-            f"{'':12}{'':16}iter {int(row['iteration']):3d}  objective {row['objective']:.6e}  "
-            f"infeasibility {row['infeasibility']:.2e}",
-            flush=True,
-        )
-
-    run = identify_gait(settings, progress=progress, iterations=iteration)
+    run = identify_gait(settings, progress=progress, iterations=_print_iteration)
     run_id = gait_run_id(run)
     summary = gait_summary(run, run_id)
     print(
