@@ -471,8 +471,10 @@ def _gait_identify(args: argparse.Namespace) -> int:
 
 
 def _gait(args: argparse.Namespace) -> int:
-    if args.gait_command == "identify":
-        return _gait_identify(args)
+    return GAIT_COMMANDS[args.gait_command](args)
+
+
+def _gait_simulate(args: argparse.Namespace) -> int:
     from colloc.gait.workflow import GaitSimulationSettings, simulate_trial
 
     # Flags left out take the settings' defaults (defined once, in colloc.gait.settings).
@@ -508,6 +510,7 @@ def _gait(args: argparse.Namespace) -> int:
     return 1 if result.fell else 0
 
 
+GAIT_COMMANDS = {"simulate": _gait_simulate, "identify": _gait_identify}
 COMMANDS = {"pendulum": _pendulum, "gait": _gait, "runs": _runs}
 
 

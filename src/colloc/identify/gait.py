@@ -290,11 +290,17 @@ def _state_names() -> tuple[str, ...]:
     return STATE_SIGNAL_NAMES
 
 
+def _recorded_controller(meta: dict[str, Any]) -> dict[str, Any] | None:
+    """The controller entry of a trial's metadata (a synthetic trial's truth), or None."""
+    recorded = meta.get("controller")
+    return recorded if isinstance(recorded, dict) else None
+
+
 def _feedback_names(choice: str, meta: dict[str, Any]) -> list[str]:
     from colloc.gait.design import FEEDBACK_SETS
 
     if choice == "metadata":
-        recorded = meta.get("controller", {}) if isinstance(meta.get("controller"), dict) else {}
+        recorded = _recorded_controller(meta) or {}
         if "feedback" in recorded:
             return list(recorded["feedback"])
         return list(JOINT_ANGLE_COLUMNS + JOINT_RATE_COLUMNS)
@@ -336,7 +342,7 @@ def _read(settings: GaitIdentifySettings) -> _Data:
             f"trial: missing columns {missing} (needed by the feedback, the tracked signals, "
             f"the belt or --phase {settings.phase})"
         )
-    recorded = meta.get("controller") if isinstance(meta.get("controller"), dict) else None
+    recorded = _recorded_controller(meta)
     mask_metadata = None
     points = settings.points
     if recorded is not None:
@@ -520,7 +526,7 @@ def _truth(
     meta: dict[str, Any], data: _Data, gs: GainScheduled, notes: list[str]
 ) -> ControllerEstimate | None:
     """The trial's true controller when it lies in the identified class."""
-    recorded = meta.get("controller") if isinstance(meta.get("controller"), dict) else None
+    recorded = _recorded_controller(meta)
     if recorded is None or not {"Tstar", "K", "mask"} <= set(recorded):
         return None
     Tstar = np.asarray(recorded["Tstar"], dtype=float)
@@ -622,7 +628,6 @@ def _walk(
 
     part, fit = data.held_out, data.fit
     t = part.time - part.time[0]
-    strides = np.diff(fit.right_heel_strikes)
     if settings.phase == "controller":
         column = fit.signals["controller_phase"].to_numpy(dtype=float)
         steps = np.diff(column)
@@ -637,7 +642,7 @@ def _walk(
         strike_phase = float(np.median(phi0))
         start_phase = float(np.mod(phase[0], 1.0))
     else:
-        stride = float(np.median(strides))
+        stride = float(np.median(np.diff(fit.right_heel_strikes)))
         strike_phase = 0.0
         start_phase = float(np.mod(phase[0], 1.0))
     hip = fit.signals["trunk_y"].to_numpy(dtype=float)

@@ -9,7 +9,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from colloc.identify.gait import JOINT_NAMES, GaitIdentification
-from colloc.identify.summaries import plain
+from colloc.identify.summaries import finite_or_none, plain
 from colloc.store import package_versions, run_id_for
 
 if TYPE_CHECKING:
@@ -71,7 +71,10 @@ def gait_record(run: GaitIdentification, run_id: str) -> RunRecord:
             known = None if truth is None else float(truth.Tstar[p, j])
             rows.append(
                 ParameterRow(
-                    f"Tstar[{p}][{joint}]", known, float(est.Tstar[p, j]), _finite(se_T[p, j])
+                    f"Tstar[{p}][{joint}]",
+                    known,
+                    float(est.Tstar[p, j]),
+                    finite_or_none(se_T[p, j]),
                 )
             )
             for i, signal in enumerate(run.feedback):
@@ -82,7 +85,7 @@ def gait_record(run: GaitIdentification, run_id: str) -> RunRecord:
                             f"K[{p}][{joint}][{signal}]",
                             known,
                             float(est.K[p, j, i]),
-                            _finite(se_K[p, j, i]),
+                            finite_or_none(se_K[p, j, i]),
                         )
                     )
     summary = gait_summary(run, run_id)
@@ -160,7 +163,3 @@ def save_gait_plots(
 
 def _row_norm(K: np.ndarray) -> np.ndarray:
     return np.linalg.norm(K, axis=2)
-
-
-def _finite(value: float) -> float | None:
-    return float(value) if np.isfinite(value) else None
