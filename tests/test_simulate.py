@@ -238,3 +238,20 @@ def test_excitation_and_noise_argument_errors() -> None:
         add_sensor_noise(np.zeros((4, 2)), [0.1, 0.2, 0.3], seed=0)
     with pytest.raises(ValueError, match=r"std must be finite and >= 0"):
         add_sensor_noise(np.zeros(4), -1.0, seed=0)
+
+
+def test_sampled_noise_is_reproducible_has_its_spread_and_is_linear_between_samples():
+    from colloc.simulate import SampledNoise
+
+    times = np.arange(20001) * 0.01
+    a = SampledNoise.draw(times, 2.0, seed=3)
+    b = SampledNoise.draw(times, 2.0, seed=3)
+    np.testing.assert_array_equal(a.values, b.values)
+    assert np.std(a.values) == pytest.approx(2.0, rel=0.03)
+    assert abs(np.mean(a.values)) < 4 * 2.0 / np.sqrt(times.size)
+    mid = 0.5 * (times[:-1] + times[1:])
+    np.testing.assert_allclose(a(mid), 0.5 * (a.values[:-1] + a.values[1:]))
+    with pytest.raises(ValueError, match="std: expected a finite number >= 0"):
+        SampledNoise.draw(times, -1.0, seed=0)
+    with pytest.raises(ValueError, match="strictly increasing"):
+        SampledNoise.draw(times[::-1], 1.0, seed=0)

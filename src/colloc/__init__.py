@@ -26,6 +26,8 @@ _EXPORTS = {
     "Solution": "colloc.nlp",
     "TerminalCost": "colloc.nlp",
     "Tracking": "colloc.nlp",
+    "ResidualDiagnostics": "colloc.nlp.residuals",
+    "residual_diagnostics": "colloc.nlp.residuals",
     "ParameterUncertainty": "colloc.nlp.uncertainty",
     "cramer_rao_bound": "colloc.nlp.uncertainty",
     "parameter_uncertainty": "colloc.nlp.uncertainty",
@@ -43,6 +45,7 @@ if TYPE_CHECKING:  # for type checkers; re-exported through __all__
     from colloc.model.linearize import linearize
     from colloc.model.state_space import StateSpace
     from colloc.nlp import IntegralCost, Problem, Solution, TerminalCost, Tracking
+    from colloc.nlp.residuals import ResidualDiagnostics, residual_diagnostics
     from colloc.nlp.uncertainty import (
         ParameterUncertainty,
         cramer_rao_bound,

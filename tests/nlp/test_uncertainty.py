@@ -130,21 +130,32 @@ class Realisations:
     estimates: np.ndarray  # (NUM_REALISATIONS, 4)
     std_errors: np.ndarray  # (NUM_REALISATIONS, 4)
     variances: np.ndarray  # (NUM_REALISATIONS,)
+    sandwich: np.ndarray  # (NUM_REALISATIONS, 4) robust standard errors
 
 
 @pytest.fixture(scope="module")
 def realisations(study) -> Realisations:
     """The gains identified from NUM_REALISATIONS noisy copies of the study's data."""
-    estimates, std_errors, variances = [], [], []
+    estimates, std_errors, variances, sandwich = [], [], [], []
     for seed in range(NUM_REALISATIONS):
         measured = study.noisy(1000 + seed)
         solution = study.solve(measured)
         unc = parameter_uncertainty(study.problem, solution, measured.size)
+        # the problem counts its own measurements: every sample of both tracked signals
+        assert parameter_uncertainty(study.problem, solution).degrees_of_freedom == (
+            unc.degrees_of_freedom
+        )
+        robust = parameter_uncertainty(study.problem, solution, method="sandwich")
+        assert (unc.method, robust.method) == ("kkt", "sandwich")
+        assert robust.blocks == round(np.sqrt(study.times.size))
         estimates.append([solution.parameters[k] for k in study.gains])
         std_errors.append([unc.standard_errors[k] for k in study.gains])
+        sandwich.append([robust.standard_errors[k] for k in study.gains])
         variances.append(unc.noise_variance)
         assert unc.degrees_of_freedom == measured.size - 8  # 4 gains + 4 initial states free
-    return Realisations(np.array(estimates), np.array(std_errors), np.array(variances))
+    return Realisations(
+        np.array(estimates), np.array(std_errors), np.array(variances), np.array(sandwich)
+    )
 
 
 def test_standard_errors_match_spread_over_noise_realisations(study, realisations):
@@ -161,6 +172,16 @@ def test_standard_errors_match_spread_over_noise_realisations(study, realisation
     noise_free = np.array([clean.parameters[k] for k in study.gains])
     standard_error_of_mean = spread / np.sqrt(NUM_REALISATIONS)
     assert np.all(np.abs(estimates.mean(axis=0) - noise_free) < 4 * standard_error_of_mean)
+
+
+def test_sandwich_standard_errors_match_the_spread_when_the_noise_model_is_right(realisations):
+    # white noise of the assumed kind: the robust estimate must agree with the spread too
+    # (it pays for its robustness with a noisier estimate of the standard error)
+    spread = realisations.estimates.std(axis=0, ddof=1)
+    ratio = spread / realisations.sandwich.mean(axis=0)
+    assert np.all(ratio < SPREAD_FACTOR) and np.all(ratio > 1 / SPREAD_FACTOR), ratio
+    agreement = realisations.sandwich.mean(axis=0) / realisations.std_errors.mean(axis=0)
+    assert np.all(np.abs(agreement - 1) < 0.15), agreement
 
 
 def test_cramer_rao_bound_at_the_truth_matches_the_spread(study, realisations):
@@ -325,3 +346,21 @@ def test_state_not_seen_by_the_data_makes_the_kkt_matrix_singular():
     assert solution.success
     with pytest.raises(ValueError, match="KKT matrix at the solution is singular"):
         parameter_uncertainty(problem, solution, times.size)
+
+
+def test_uncertainty_method_and_blocks_are_checked(study):
+    solution = study.solve(study.noisy(5))
+    with pytest.raises(ValueError, match="method: expected one of"):
+        parameter_uncertainty(study.problem, solution, method="bootstrap")
+    with pytest.raises(ValueError, match="blocks: expected between 2 and"):
+        parameter_uncertainty(study.problem, solution, method="sandwich", blocks=1)
+    with pytest.raises(ValueError, match="increasing first nodes starting at 0"):
+        parameter_uncertainty(study.problem, solution, method="sandwich", blocks=[5, 100])
+    with pytest.raises(ValueError, match="beyond the"):
+        parameter_uncertainty(study.problem, solution, method="sandwich", blocks=[0, 10**6])
+    # blocks given by their first nodes: the same as the equal split they describe
+    N = study.times.size
+    starts = np.linspace(0, N, 20, endpoint=False).astype(int)
+    by_count = parameter_uncertainty(study.problem, solution, method="sandwich", blocks=20)
+    by_start = parameter_uncertainty(study.problem, solution, method="sandwich", blocks=starts)
+    np.testing.assert_allclose(by_count.covariance, by_start.covariance, rtol=1e-12)

@@ -326,23 +326,26 @@ class Model:
             schedules=self.schedules + schedules,
         )
 
-    def with_disturbances(self, disturbances: Mapping[int, sm.Basic]) -> Model:
-        """Add an unknown disturbance trajectory to chosen equations (process noise).
+    def with_disturbances(self, disturbances: Mapping[int | sm.Basic, sm.Basic]) -> Model:
+        """Add unknown disturbance trajectories (process noise) to equations or inputs.
 
-        Equation ``i`` becomes ``F_i(x', x, r, p, t) - w_i(t) = 0``. For the dynamic rows
-        of :meth:`from_kane` / :meth:`from_lagrange` (``M u' - f = 0``) ``w_i`` is thus a
-        generalized force added to ``f`` on that coordinate: a motor-noise torque on an
-        actuated joint, a residual force on an unactuated one. The ``w_i`` join
+        A disturbance keyed by an equation row ``i`` makes that equation
+        ``F_i(x', x, r, p, t) - w_i(t) = 0``: for the dynamic rows of :meth:`from_kane` /
+        :meth:`from_lagrange` (``M u' - f = 0``) a generalized force added to ``f`` on that
+        coordinate (a residual force on an unactuated one). A disturbance keyed by an input
+        ``r`` replaces ``r`` by ``r + w(t)`` in the equations and the outputs: noise on an
+        actuator (motor noise on a joint torque, before :meth:`close_loop` puts the
+        controller's law in place of ``r``) or on a known input. The ``w`` join
         :attr:`unknown_inputs`, so a :class:`colloc.Problem` estimates them at every node;
-        penalise them in the objective by their assumed variance (e.g. an
-        :class:`colloc.IntegralCost` of ``w_i**2 / sigma_i**2``). With every dynamic row
-        disturbed, any state trajectory satisfies the dynamics for ``w = F``: a start
-        consistent with the equations by construction.
+        give their standard deviations as the problem's ``process_noise`` to penalise them
+        by their variance (the maximum a posteriori form; see ``docs/process-noise.md``).
+        With every dynamic row disturbed, any state trajectory satisfies the dynamics for
+        ``w = F``: a start consistent with the equations by construction.
 
         Parameters
         ----------
         disturbances : mapping
-            Equation (row of :attr:`residual`, from 0) -> a new function of time, e.g.
+            Equation row (from 0) or input of the model -> a new function of time, e.g.
             ``dynamicsymbols("w_hip")``.
 
         Returns
@@ -352,32 +355,35 @@ class Model:
         Raises
         ------
         ModelError
-            Listing every row out of range and every symbol that is not a new function of
-            time or is given twice.
+            Listing every row out of range, every key that is neither a row nor an input and
+            every symbol that is not a new function of time or is given twice.
         """
         problems = []
         if not isinstance(disturbances, Mapping) or not disturbances:
             raise_if_any(
                 [
-                    "disturbances: expected a non-empty mapping equation row -> function of "
-                    f"time, found {disturbances!r}"
+                    "disturbances: expected a non-empty mapping (equation row or input) -> "
+                    f"function of time, found {disturbances!r}"
                 ]
             )
         used = set(self.states) | set(self.inputs)
         seen: set[sm.Basic] = set()
-        for row, w in disturbances.items():
-            if (
-                isinstance(row, bool)
-                or not isinstance(row, int)
-                or not 0 <= row < self.num_equations
+        for key, w in disturbances.items():
+            if key in self.inputs:
+                pass
+            elif (
+                isinstance(key, bool)
+                or not isinstance(key, int)
+                or not 0 <= key < self.num_equations
             ):
                 problems.append(
-                    f"disturbances: row {row!r} is not an equation of the model "
-                    f"(rows 0 to {self.num_equations - 1})"
+                    f"disturbances: row {key!r} is not an equation of the model "
+                    f"(rows 0 to {self.num_equations - 1}) nor one of its inputs "
+                    f"{[name_of(r) for r in self.inputs]}"
                 )
             if not is_function_of_time(w, self.t):
                 problems.append(
-                    f"disturbances: {w!r} for row {row!r} is not a function of {self.t} "
+                    f"disturbances: {w!r} for row {key!r} is not a function of {self.t} "
                     "(make one with sympy.physics.mechanics.dynamicsymbols)"
                 )
             elif w in used:
@@ -386,12 +392,16 @@ class Model:
                 problems.append(f"disturbances: {name_of(w)} is given for two rows")
             seen.add(w)
         raise_if_any(problems)
-        residual = sm.Matrix(self.residual)
+        on_inputs = {r: r + w for r, w in disturbances.items() if r in self.inputs}
+        residual = sm.Matrix(self.residual).xreplace(on_inputs)
         for row, w in disturbances.items():
-            residual[row] = residual[row] - w
+            if isinstance(row, int):
+                residual[row] = residual[row] - w
+        outputs = {y: g.xreplace(on_inputs) for y, g in self.outputs.items()}
         return replace(
             self,
             residual=residual,
+            outputs=outputs,
             unknown_inputs=self.unknown_inputs + tuple(disturbances.values()),
         )
 

@@ -36,6 +36,10 @@ class NodeTerm:
         When ``phi = sum weight * residual**2`` (a tracking term): its pieces, from which the
         Gauss-Newton Hessian ``2 sum weight grad(residual) grad(residual)^T`` is built.
         Empty for other terms.
+    signals : tuple of str
+        For a tracking term of ``m`` signals: their names. Its first ``m`` data columns are
+        then the measurements (``residual_j = y_j - data_j``) and the next ``m`` the weights,
+        which :func:`colloc.nlp.residuals.tracking_residuals` relies on.
     """
 
     expr: sm.Expr
@@ -43,6 +47,7 @@ class NodeTerm:
     data: np.ndarray
     factors: np.ndarray
     least_squares: tuple[tuple[sm.Expr, sm.Basic], ...] = ()
+    signals: tuple[str, ...] = ()
 
 
 class ObjectiveTerm(ABC):
@@ -64,13 +69,18 @@ class Tracking(ObjectiveTerm):
     """Weighted least squares between model outputs and measurements.
 
     ``J = sum_k sum_j w_j (y_j(x_k, t_k) - y_m,jk)^2``; samples that are NaN are left out.
+    With ``w_j = 1 / sigma_j^2`` (or all weights relative to one reference variance) and
+    independent Gaussian noise of standard deviation ``sigma_j`` on signal ``j``, ``J`` is
+    twice the negative log-likelihood, which is what the standard errors of
+    :func:`colloc.parameter_uncertainty` assume.
 
     Parameters
     ----------
     measurements : mapping
-        Output symbol (a key of ``model.outputs``) -> measured values at the nodes.
+        Output symbol (a key of ``model.outputs``) or input of the model (tracked directly,
+        e.g. a measured force that is a free trajectory) -> measured values at the nodes.
     weights : float or mapping, optional
-        One weight for all outputs, or output symbol -> weight. Default 1.
+        One weight for all signals, or symbol -> weight. Default 1.
     """
 
     def __init__(
@@ -101,11 +111,13 @@ class Tracking(ObjectiveTerm):
     def node_term(self, model: Model, times: np.ndarray, index: int) -> NodeTerm:
         """See :meth:`ObjectiveTerm.node_term`."""
         problems = []
+        inputs = set(model.inputs)
         for y, values in self.measurements.items():
-            if y not in model.outputs:
+            if y not in model.outputs and y not in inputs:
                 problems.append(
-                    f"{name_of(y)} is not an output of the model (outputs: "
-                    f"{[name_of(o) for o in model.outputs]})"
+                    f"{name_of(y)} is not an output or input of the model (outputs: "
+                    f"{[name_of(o) for o in model.outputs]}, inputs: "
+                    f"{[name_of(r) for r in model.inputs]})"
                 )
             elif values.shape != times.shape:
                 problems.append(
@@ -119,7 +131,9 @@ class Tracking(ObjectiveTerm):
         outputs = list(self.measurements)
         ym = sm.symbols(f"ym{index}_0:{len(outputs)}")
         wm = sm.symbols(f"wm{index}_0:{len(outputs)}")
-        pieces = tuple((model.outputs[y] - m, w) for y, m, w in zip(outputs, ym, wm, strict=True))
+        pieces = tuple(
+            (model.outputs.get(y, y) - m, w) for y, m, w in zip(outputs, ym, wm, strict=True)
+        )
         expr = sum((w * r**2 for r, w in pieces), sm.S.Zero)
         measured = np.column_stack([self.measurements[y] for y in outputs])
         missing = np.isnan(measured)
@@ -127,7 +141,14 @@ class Tracking(ObjectiveTerm):
             [np.where(missing[:, j], 0.0, self.weights[y]) for j, y in enumerate(outputs)]
         )
         data = np.hstack([np.where(missing, 0.0, measured), weight_cols])
-        return NodeTerm(expr, tuple(ym) + tuple(wm), data, np.ones(times.size), pieces)
+        return NodeTerm(
+            expr,
+            tuple(ym) + tuple(wm),
+            data,
+            np.ones(times.size),
+            pieces,
+            tuple(name_of(y) for y in outputs),
+        )
 
     def fingerprint(self) -> str:
         """See :meth:`ObjectiveTerm.fingerprint`."""

@@ -15,15 +15,17 @@ from colloc.model.symbols import name_of
 from colloc.nlp.assembly import AssembledNLP
 from colloc.nlp.build import build_templates
 from colloc.nlp.layout import Layout
-from colloc.nlp.objective import ObjectiveTerm
+from colloc.nlp.objective import NodeTerm, ObjectiveTerm, Tracking
 from colloc.nlp.placement import GridData, assemble
 from colloc.nlp.solution import Solution
 from colloc.nlp.spec import (
     Bounds,
     check_bounds,
+    check_measured_inputs,
     check_node_terms,
     check_objective,
     check_parameters,
+    check_process_noise,
     check_schedules,
     check_trajectories,
     parse_instance_constraints,
@@ -65,6 +67,17 @@ class Problem:
         ``q.func(tf) - q.func(0.0)`` for periodicity) and parameters.
     cache : bool, str or Path
         Cache built functions on disk (default directory, or the one given); False: never.
+    process_noise : mapping, optional
+        Disturbance (an unknown input added by :meth:`Model.with_disturbances`) -> its
+        standard deviation per node. Each disturbance is estimated at every node and
+        penalised by ``sum_k w_k^2 / sigma^2`` beside the tracking terms: the maximum a
+        posteriori estimate when the tracking weights are ``1 / sigma_y^2`` (scale every
+        standard deviation by the same reference when the weights are relative).
+    measured_inputs : mapping, optional
+        Input -> ``(values, sigma)``: an input measured with noise of standard deviation
+        ``sigma`` (errors in variables). It becomes a free trajectory tracked to ``values``
+        (one per node, NaN where missing) with weight ``1 / sigma^2``, instead of a known
+        trajectory taken as exact; :meth:`initial_guess` starts it at its measurement.
 
     Raises
     ------
@@ -84,6 +97,8 @@ class Problem:
         bounds: Bounds | None = None,
         instance_constraints: Sequence[sm.Expr] | None = None,
         cache: bool | str | Any = True,
+        process_noise: Mapping[sm.Basic, Any] | None = None,
+        measured_inputs: Mapping[sm.Basic, Any] | None = None,
     ) -> None:
         t_start = time.perf_counter()
         if not isinstance(model, Model):
@@ -101,11 +116,17 @@ class Problem:
             grid = TimeGrid(np.arange(2.0))  # placeholder so every other check still runs
         self.model, self.scheme, self.grid = model, scheme, grid
         N = self.grid.num_nodes
-        self.known_trajectories = check_trajectories(model, known_trajectories or {}, N, problems)
+        self.measured_inputs = check_measured_inputs(
+            model, measured_inputs or {}, known_trajectories or {}, N, problems
+        )
+        self.process_noise = check_process_noise(model, process_noise or {}, problems)
+        self.known_trajectories = check_trajectories(
+            model, known_trajectories or {}, N, problems, tuple(measured_inputs or {})
+        )
         self.known_parameters, unknown = check_parameters(
             model, known_parameters or {}, unknown_parameters, problems
         )
-        terms = check_objective(objective, problems)
+        terms = check_objective(objective, problems) + self._noise_terms(N)
         free_inputs = tuple(r for r in model.inputs if r not in self.known_trajectories)
         unknown_set = set(unknown)
         self.partition = Partition(
@@ -146,6 +167,31 @@ class Problem:
         self.nlp = self._assemble(templates, node_terms, ic_locs)
         self.build_time = time.perf_counter() - t_start
         """Seconds to construct the problem, including :attr:`derive_time`."""
+
+    def _noise_terms(self, num_nodes: int) -> list[ObjectiveTerm]:
+        """The tracking terms of the measured inputs and the disturbance penalty."""
+        terms: list[ObjectiveTerm] = []
+        if self.measured_inputs:
+            terms.append(
+                Tracking(
+                    {r: v for r, (v, _) in self.measured_inputs.items()},
+                    {r: 1.0 / s**2 for r, (_, s) in self.measured_inputs.items()},
+                )
+            )
+        if self.process_noise:
+            terms.append(
+                Tracking(
+                    {w: np.zeros(num_nodes) for w in self.process_noise},
+                    {w: 1.0 / s**2 for w, s in self.process_noise.items()},
+                )
+            )
+        return terms
+
+    @property
+    def node_terms(self) -> tuple[NodeTerm, ...]:
+        """The objective's terms in node form: the user's, then the measured inputs' tracking
+        and the process-noise penalty (see :class:`colloc.nlp.objective.NodeTerm`)."""
+        return tuple(self._node_terms)
 
     # ---------------------------------------------------------------- layout
     def _make_layout(self) -> Layout:
@@ -214,7 +260,8 @@ class Problem:
         terms = self._node_terms
         if objective is not None:
             terms = []
-            for i, term in enumerate(check_objective(objective, problems)):
+            new_terms = check_objective(objective, problems) + self._noise_terms(N)
+            for i, term in enumerate(new_terms):
                 try:
                     terms.append(term.node_term(self.model, self.grid.times, i))
                 except ValueError as exc:
@@ -269,7 +316,12 @@ class Problem:
         gives a nearly feasible start.
         """
         lay = self.layout
-        nodes = {name_of(s): v for s, v in (trajectories or {}).items()}
+        given = dict(trajectories or {})
+        for r, (values, _) in self.measured_inputs.items():
+            if r not in given:
+                ok = ~np.isnan(values)
+                given[r] = np.interp(self.grid.times, self.grid.times[ok], values[ok])
+        nodes = {name_of(s): v for s, v in given.items()}
         params = {name_of(p): v for p, v in (parameters or {}).items()}
         z = lay.fill(nodes, params, default=default)
         X = lay.node_matrix(z)

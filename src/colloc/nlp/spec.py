@@ -17,9 +17,14 @@ Bounds = Mapping[sm.Basic, tuple[float, float]]
 
 
 def check_trajectories(
-    model: Model, known: Mapping[sm.Basic, Any], num_nodes: int, problems: list[str]
+    model: Model,
+    known: Mapping[sm.Basic, Any],
+    num_nodes: int,
+    problems: list[str],
+    measured: Sequence[sm.Basic] = (),
 ) -> dict[sm.Basic, np.ndarray]:
-    """Known input trajectories: each an input of the model, one finite value per node."""
+    """Known input trajectories: each an input of the model, one finite value per node
+    (a known input of the model may instead be ``measured``: a free trajectory tracked)."""
     out: dict[sm.Basic, np.ndarray] = {}
     for r, values in known.items():
         if r not in model.inputs:
@@ -41,11 +46,12 @@ def check_trajectories(
             )
         else:
             out[r] = arr
-    missing = [name_of(r) for r in model.known_inputs if r not in known]
+    missing = [name_of(r) for r in model.known_inputs if r not in known and r not in measured]
     if missing:
         problems.append(
             f"known_trajectories: the model's known inputs {missing} have no trajectory; "
-            "give one per node, or declare them unknown_inputs of the model"
+            "give one per node, give them as measured_inputs, or declare them unknown_inputs "
+            "of the model"
         )
     return out
 
@@ -251,3 +257,90 @@ def check_schedules(
                 f"known_trajectories[{name_of(sched.phase)}]: expected the unwrapped phase "
                 f"(non-decreasing, in cycles), found a decrease after node {i}"
             )
+
+
+def _standard_deviation(value: Any, where: str, problems: list[str]) -> float | None:
+    try:
+        std = float(value)
+    except (TypeError, ValueError):
+        problems.append(f"{where}: expected a standard deviation > 0, found {value!r}")
+        return None
+    if not (np.isfinite(std) and std > 0):
+        problems.append(f"{where}: expected a finite standard deviation > 0, found {value!r}")
+        return None
+    return std
+
+
+def check_process_noise(
+    model: Model, process_noise: Mapping[sm.Basic, Any], problems: list[str]
+) -> dict[sm.Basic, float]:
+    """Disturbance trajectory -> its standard deviation per node; each an unknown input."""
+    out: dict[sm.Basic, float] = {}
+    if not isinstance(process_noise, Mapping):
+        problems.append(
+            "process_noise: expected a mapping disturbance -> standard deviation, found "
+            f"{type(process_noise).__name__}"
+        )
+        return out
+    for w, value in process_noise.items():
+        if w not in model.unknown_inputs:
+            problems.append(
+                f"process_noise: {name_of(w)} is not an unknown input of the model (add it "
+                "with Model.with_disturbances; unknown inputs: "
+                f"{[name_of(r) for r in model.unknown_inputs]})"
+            )
+            continue
+        std = _standard_deviation(value, f"process_noise[{name_of(w)}]", problems)
+        if std is not None:
+            out[w] = std
+    return out
+
+
+def check_measured_inputs(
+    model: Model,
+    measured: Mapping[sm.Basic, Any],
+    known: Mapping[sm.Basic, Any],
+    num_nodes: int,
+    problems: list[str],
+) -> dict[sm.Basic, tuple[np.ndarray, float]]:
+    """Input -> (measured values per node, NaN where missing; standard deviation)."""
+    out: dict[sm.Basic, tuple[np.ndarray, float]] = {}
+    if not isinstance(measured, Mapping):
+        problems.append(
+            "measured_inputs: expected a mapping input -> (values, standard deviation), found "
+            f"{type(measured).__name__}"
+        )
+        return out
+    for r, entry in measured.items():
+        where = f"measured_inputs[{name_of(r)}]"
+        if r not in model.inputs:
+            problems.append(
+                f"measured_inputs: {name_of(r)} is not an input of the model (inputs: "
+                f"{[name_of(i) for i in model.inputs]})"
+            )
+            continue
+        if r in known:
+            problems.append(
+                f"measured_inputs: {name_of(r)} is also given in known_trajectories; an input "
+                "is either known exactly or measured with noise"
+            )
+            continue
+        if not (isinstance(entry, tuple | list) and len(entry) == 2):
+            problems.append(
+                f"{where}: expected a pair (values, standard deviation), found {entry!r}"
+            )
+            continue
+        values, std_value = entry
+        arr = np.asarray(values, dtype=float)
+        std = _standard_deviation(std_value, f"{where} standard deviation", problems)
+        if arr.shape != (num_nodes,):
+            problems.append(
+                f"{where}: expected {num_nodes} values (one per node), found shape {arr.shape}"
+            )
+        elif np.isinf(arr).any() or np.isnan(arr).all():
+            problems.append(
+                f"{where}: expected finite values (NaN where missing), found inf or all NaN"
+            )
+        elif std is not None:
+            out[r] = (arr, std)
+    return out

@@ -17,6 +17,7 @@ whether a planned experiment can identify the parameters at all.
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
@@ -25,9 +26,15 @@ import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 import sympy as sm
 
+from colloc.nlp.residuals import tracking_residuals
+
 if TYPE_CHECKING:
     from colloc.nlp.problem import Problem
     from colloc.nlp.solution import Solution
+
+
+#: The methods of :func:`parameter_uncertainty`.
+METHODS = ("kkt", "sandwich")
 
 
 @dataclass(frozen=True)
@@ -46,6 +53,11 @@ class ParameterUncertainty:
         :func:`cramer_rao_bound`.
     degrees_of_freedom : int or None
         ``num_measurements - num_free``; None for a bound (no residuals were used).
+    method : str
+        ``"kkt"`` (the noise model taken as right), ``"sandwich"`` (robust to a wrong one)
+        or ``"cramer-rao"`` (a bound at a chosen point).
+    blocks : int or None
+        Number of time blocks of the sandwich estimate.
     """
 
     parameters: tuple[sm.Symbol, ...]
@@ -53,20 +65,44 @@ class ParameterUncertainty:
     covariance: np.ndarray
     noise_variance: float
     degrees_of_freedom: int | None
+    method: str = "kkt"
+    blocks: int | None = None
 
 
 def parameter_uncertainty(
-    problem: Problem, solution: Solution, num_measurements: int
+    problem: Problem,
+    solution: Solution,
+    num_measurements: int | None = None,
+    method: str = "kkt",
+    blocks: int | Sequence[int] | None = None,
 ) -> ParameterUncertainty:
     """Standard errors of ``solution``'s unknown parameters.
+
+    ``method="kkt"`` trusts the noise model: ``2 sigma^2 [K^-1]_pp`` with the pooled
+    ``sigma^2 = J* / dof`` (right when the weights are ``1 / sigma_j^2`` up to one common
+    factor, the residuals independent, and the dynamics exact or their disturbances in
+    ``process_noise``). ``method="sandwich"`` does not: each parameter's response to the
+    data is linearised through the KKT system, ``dtheta = [K^-1]_p,: dg``, and its spread is
+    taken from the residuals themselves, summed over contiguous time blocks (a cluster-
+    robust, heteroskedasticity- and autocorrelation-consistent covariance
+    ``nb / (nb - 1) sum_b u_b u_b^T`` with ``u_b = [K^-1]_p,: g_b`` and ``g_b`` the objective
+    gradient of block ``b``'s residuals). It stays honest when the noise levels are wrong
+    or the residuals are correlated within a block (process noise left out, coloured
+    noise); it needs many blocks longer than the residuals' correlation time.
 
     Parameters
     ----------
     problem : Problem
         The problem that was solved (its objective must be a tracking least squares).
     solution : Solution
-    num_measurements : int
-        Number of measured samples that entered the tracking objective.
+    num_measurements : int, optional
+        Number of measured samples in the objective; by default counted from the problem's
+        least-squares terms (samples with a positive weight, including the process-noise
+        penalty's zero pseudo-measurements, whose disturbances are free quantities).
+    method : {"kkt", "sandwich"}
+    blocks : int or sequence of int, optional
+        Sandwich only: the number of equal time blocks, or the first node of each block
+        (e.g. each stride's heel strike). Default ``round(sqrt(N))`` blocks.
 
     Returns
     -------
@@ -76,12 +112,18 @@ def parameter_uncertainty(
     ------
     ValueError
         When there are no unknown parameters, no more measurements than free quantities,
-        or the KKT matrix is singular (unidentifiable parameters).
+        the KKT matrix is singular (unidentifiable parameters), or ``method`` or ``blocks``
+        is not one of the accepted values.
     """
+    if method not in METHODS:
+        raise ValueError(f"method: expected one of {list(METHODS)}, found {method!r}")
     nlp, lay = problem.nlp, problem.layout
     q = len(lay.parameter_names)
     if q == 0:
         raise ValueError("problem: has no unknown parameters, so there is nothing to estimate")
+    starts = _block_starts(blocks, lay.num_nodes) if method == "sandwich" else None
+    if num_measurements is None:
+        num_measurements = count_measurements(problem)
     n, m = nlp.n, nlp.m
     dof = num_measurements - (n - m)
     if dof <= 0:
@@ -90,9 +132,83 @@ def parameter_uncertainty(
             f"found {num_measurements}"
         )
     hessian = problem.nlp.hessian(solution.z, solution.multipliers, 1.0)
-    block = _kkt_parameter_block(problem, solution.z, hessian)
+    kkt = _ReducedKKT(problem, solution.z, hessian)
     sigma2 = float(solution.stats["objective"]) / dof
-    return _result(problem, 2.0 * sigma2 * block, sigma2, dof)
+    if starts is None:
+        return _result(problem, 2.0 * sigma2 * kkt.parameter_block(), sigma2, dof, "kkt", None)
+    G = _block_gradients(problem, solution.z, starts)
+    priors = [r for r in tracking_residuals(problem, solution.z) if r.kind != "tracking"]
+    cov = np.zeros((q, q))
+    for prior in priors:
+        # a disturbance or a measured input's correction: its residuals are shrunk by the
+        # fit, so its share is taken from the noise model (4 sigma^2 Y W Y^T) rather than
+        # from the residuals, and its gradient is taken out of the blocks'
+        index = np.asarray(lay.node_indices(prior.name))
+        used = prior.weights > 0
+        r = np.where(used, prior.residuals, 0.0)
+        nodes = np.arange(index.size)
+        block = np.searchsorted(starts, nodes, side="right") - 1
+        G = G - sp.coo_matrix((2.0 * prior.weights * r, (index, block)), shape=G.shape).tocsc()
+        Y = kkt.parameter_columns(index[used])
+        cov += 4.0 * sigma2 * (Y * prior.weights[used]) @ Y.T
+    U = kkt.parameter_rows(G)
+    nb = starts.size
+    cov += nb / (nb - 1) * (U @ U.T)
+    return _result(problem, 0.5 * (cov + cov.T), sigma2, dof, "sandwich", nb)
+
+
+def count_measurements(problem: Problem) -> int:
+    """Samples with a positive weight in the problem's least-squares terms.
+
+    Parameters
+    ----------
+    problem : Problem
+
+    Returns
+    -------
+    int
+    """
+    total = 0
+    for term in problem.node_terms:
+        m = len(term.signals)
+        if m:
+            total += int(np.count_nonzero(term.data[:, m : 2 * m] > 0))
+    return total
+
+
+def _block_starts(blocks: int | Sequence[int] | None, N: int) -> np.ndarray:
+    if blocks is None:
+        count = max(2, int(round(np.sqrt(N))))
+        return np.unique(np.linspace(0, N, count, endpoint=False).astype(np.int64))
+    if isinstance(blocks, int | np.integer) and not isinstance(blocks, bool):
+        if not 2 <= blocks <= N:
+            raise ValueError(f"blocks: expected between 2 and {N} blocks, found {blocks}")
+        return np.unique(np.linspace(0, N, int(blocks), endpoint=False).astype(np.int64))
+    try:
+        starts = np.asarray(blocks, dtype=np.int64)
+    except (TypeError, ValueError) as exc:
+        raise ValueError(
+            f"blocks: expected a number of blocks or the first node of each, found {blocks!r}"
+        ) from exc
+    if starts.ndim != 1 or starts.size < 2 or (starts[0] != 0) or np.any(np.diff(starts) <= 0):
+        raise ValueError(
+            f"blocks: expected at least 2 increasing first nodes starting at 0, found {blocks!r}"
+        )
+    if starts[-1] >= N:
+        raise ValueError(f"blocks: first node {int(starts[-1])} is beyond the {N} nodes")
+    return starts
+
+
+def _block_gradients(problem: Problem, z: np.ndarray, starts: np.ndarray) -> sp.csc_matrix:
+    """``(n, nb)``: column ``b`` is the objective gradient of the nodes of block ``b``."""
+    p = problem.nlp.objective_placement
+    assert p is not None  # parameter_uncertainty needs a tracking objective
+    vals = p.mapped.jacobian(p.gather(z), p.data).reshape(p.count, -1)
+    items = np.repeat(np.arange(p.count), vals.shape[1])
+    block = np.searchsorted(starts, items, side="right") - 1
+    return sp.coo_matrix(
+        (vals.ravel(), (p.jac_cols, block)), shape=(problem.nlp.n, starts.size)
+    ).tocsc()
 
 
 def cramer_rao_bound(
@@ -141,59 +257,86 @@ def cramer_rao_bound(
         raise ValueError(f"z: expected shape ({nlp.n},), found {z.shape}")
     if not (np.isfinite(noise_variance) and noise_variance > 0):
         raise ValueError(f"noise_variance: expected a number > 0, found {noise_variance!r}")
-    block = _kkt_parameter_block(problem, z, nlp.gauss_newton_hessian(z))
-    return _result(problem, 2.0 * float(noise_variance) * block, float(noise_variance), None)
+    block = _ReducedKKT(problem, z, nlp.gauss_newton_hessian(z)).parameter_block()
+    return _result(
+        problem, 2.0 * float(noise_variance) * block, float(noise_variance), None, "cramer-rao"
+    )
 
 
-def _kkt_parameter_block(problem: Problem, z: np.ndarray, hessian: np.ndarray) -> np.ndarray:
-    """Symmetrised ``[K^-1]_pp`` of the KKT matrix at ``z`` with these Hessian nonzeros."""
-    nlp, lay = problem.nlp, problem.layout
-    n, m = nlp.n, nlp.m
-    hr, hc = nlp.hessianstructure()
-    H = sp.coo_matrix((hessian, (hr, hc)), shape=(n, n)).tocsc()
-    H = H + sp.triu(H.T, k=1)
-    jr, jc = nlp.jacobianstructure()
-    C = sp.coo_matrix((nlp.jacobian(z), (jr, jc)), shape=(m, n)).tocsc()
-    block = _parameter_block_of_kkt_inverse(H, C, lay.parameter_offset)
-    return 0.5 * (block + block.T)
+class _ReducedKKT:
+    """The KKT matrix ``K = [[H, C^T], [C, 0]]`` at ``z``, with the parameters eliminated.
+
+    The parameter columns couple every interval, so a direct factorisation of ``K`` fills
+    in badly. Without them ``K_s`` (states and constraints only) is banded in time and
+    factorises cheaply; the parameter rows of ``K^-1`` are then
+    ``S^-1 [-B^T K_s^-1, I]`` with ``B = [H_sp; C_p]`` and the Schur complement
+    ``S = H_pp - B^T K_s^-1 B``.
+    """
+
+    def __init__(self, problem: Problem, z: np.ndarray, hessian: np.ndarray) -> None:
+        nlp, lay = problem.nlp, problem.layout
+        n, m = nlp.n, nlp.m
+        p0 = lay.parameter_offset
+        hr, hc = nlp.hessianstructure()
+        H = sp.coo_matrix((hessian, (hr, hc)), shape=(n, n)).tocsc()
+        H = (H + sp.triu(H.T, k=1)).tocsc()
+        jr, jc = nlp.jacobianstructure()
+        C = sp.coo_matrix((nlp.jacobian(z), (jr, jc)), shape=(m, n)).tocsc()
+        Hss, Hsp, Hpp = H[:p0, :p0], H[:p0, p0:], H[p0:, p0:].toarray()
+        Cs, Cp = C[:, :p0], C[:, p0:]
+        Ks = sp.bmat([[Hss, Cs.T], [Cs, None]], format="csc")
+        self.p0, self.m = p0, m
+        self.B = sp.vstack([Hsp, Cp]).toarray()
+        try:
+            self.lu = spla.splu(Ks)
+        except RuntimeError as exc:
+            raise ValueError(
+                "the KKT matrix at the solution is singular: the states are not determined by "
+                "the data and the dynamics"
+            ) from exc
+        self.X = self.lu.solve(self.B)
+        S = Hpp - self.B.T @ self.X
+        self.S = 0.5 * (S + S.T)
+        try:
+            self.S_inv = np.linalg.inv(self.S)
+        except np.linalg.LinAlgError as exc:
+            raise ValueError(
+                "the reduced Hessian of the parameters is singular: some unknown parameters "
+                "cannot be identified from these data"
+            ) from exc
+
+    def parameter_block(self) -> np.ndarray:
+        """Symmetrised ``[K^-1]_pp``."""
+        return 0.5 * (self.S_inv + self.S_inv.T)
+
+    def parameter_columns(self, index: np.ndarray) -> np.ndarray:
+        """``[K^-1]_p,i`` for free variables ``i`` (not parameters): ``-S^-1 X_i^T``."""
+        return -self.S_inv @ self.X[index].T
+
+    def parameter_rows(self, G: sp.csc_matrix) -> np.ndarray:
+        """``[K^-1]_p,: [G; 0]`` for gradient columns ``G`` (free-vector rows)."""
+        Gs = G[: self.p0].toarray()
+        Gp = G[self.p0 :].toarray()
+        rhs = np.vstack([Gs, np.zeros((self.m, Gs.shape[1]))])
+        return self.S_inv @ (Gp - self.B.T @ self.lu.solve(rhs))
 
 
 def _result(
-    problem: Problem, cov: np.ndarray, sigma2: float, dof: int | None
+    problem: Problem,
+    cov: np.ndarray,
+    sigma2: float,
+    dof: int | None,
+    method: str,
+    blocks: int | None = None,
 ) -> ParameterUncertainty:
     se = np.sqrt(np.clip(np.diag(cov), 0.0, None))
     params = problem.partition.unknown_parameters
     return ParameterUncertainty(
-        params, dict(zip(params, map(float, se), strict=True)), cov, sigma2, dof
+        params,
+        dict(zip(params, map(float, se), strict=True)),
+        cov,
+        sigma2,
+        dof,
+        method,
+        blocks,
     )
-
-
-def _parameter_block_of_kkt_inverse(H: sp.csc_matrix, C: sp.csc_matrix, p0: int) -> np.ndarray:
-    """``[K^-1]_pp`` for ``K = [[H, C^T], [C, 0]]`` and parameters ``z[p0:]``.
-
-    The parameter columns couple every interval, so a direct factorisation of ``K`` fills
-    in badly. Without them ``K_s`` (states and constraints only) is banded in time and
-    factorises cheaply; the parameter block is then the inverse of the Schur complement
-    ``S = H_pp - B^T K_s^-1 B`` with ``B = [H_sp; C_p]``.
-    """
-    H = H.tocsc()
-    C = C.tocsc()
-    Hss, Hsp, Hpp = H[:p0, :p0], H[:p0, p0:], H[p0:, p0:].toarray()
-    Cs, Cp = C[:, :p0], C[:, p0:]
-    Ks = sp.bmat([[Hss, Cs.T], [Cs, None]], format="csc")
-    B = sp.vstack([Hsp, Cp]).toarray()
-    try:
-        lu = spla.splu(Ks)
-    except RuntimeError as exc:
-        raise ValueError(
-            "the KKT matrix at the solution is singular: the states are not determined by "
-            "the data and the dynamics"
-        ) from exc
-    S = Hpp - B.T @ lu.solve(B)
-    try:
-        return np.linalg.inv(S)
-    except np.linalg.LinAlgError as exc:
-        raise ValueError(
-            "the reduced Hessian of the parameters is singular: some unknown parameters "
-            "cannot be identified from these data"
-        ) from exc

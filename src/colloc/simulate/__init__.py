@@ -3,6 +3,7 @@
 from colloc.simulate.implicit_ode import ImplicitODE
 from colloc.simulate.integrate import SimulationError, simulate
 from colloc.simulate.signals import (
+    SampledNoise,
     SumOfSines,
     add_sensor_noise,
     random_phases,
@@ -12,6 +13,7 @@ from colloc.simulate.signals import (
 
 __all__ = [
     "ImplicitODE",
+    "SampledNoise",
     "SimulationError",
     "SumOfSines",
     "add_sensor_noise",

@@ -162,3 +162,52 @@ def add_sensor_noise(array: ArrayLike, std: ArrayLike, seed: int | None) -> Arra
     if problems:
         raise ValueError("add_sensor_noise: " + "; ".join(problems))
     return y + np.random.default_rng(seed).standard_normal(y.shape) * s
+
+
+@dataclass(frozen=True)
+class SampledNoise:
+    """Gaussian white noise drawn at sample times, linear between them (process noise).
+
+    Drawn once per sample with standard deviation ``std`` and interpolated linearly, so a
+    simulation driven by it and a collocation grid on the same samples see the same signal
+    (the midpoint scheme's average of two nodes is the interval's mean).
+
+    Parameters
+    ----------
+    times : ndarray
+        Increasing sample times.
+    values : ndarray
+        The noise at those times.
+    """
+
+    times: Array
+    values: Array
+
+    def __call__(self, t: ArrayLike) -> Any:
+        """The noise at ``t`` (held at the end values outside the samples)."""
+        return np.interp(np.asarray(t, dtype=float), self.times, self.values)
+
+    @classmethod
+    def draw(cls, times: ArrayLike, std: float, seed: int | None) -> SampledNoise:
+        """Draw one realisation.
+
+        Parameters
+        ----------
+        times : array_like
+            Sample times, strictly increasing.
+        std : float
+            Standard deviation per sample, >= 0.
+        seed : int or None
+            Seed of ``numpy.random.default_rng``.
+
+        Returns
+        -------
+        SampledNoise
+        """
+        t = np.asarray(times, dtype=float)
+        if t.ndim != 1 or t.size < 2 or np.any(np.diff(t) <= 0):
+            raise ValueError("times: expected at least 2 strictly increasing sample times")
+        if not (np.isfinite(std) and std >= 0):
+            raise ValueError(f"std: expected a finite number >= 0, found {std!r}")
+        rng = np.random.default_rng(seed)
+        return cls(t, rng.normal(0.0, float(std), t.size))
