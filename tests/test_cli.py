@@ -81,6 +81,9 @@ def run_cli(argv, capsys):
         (["-s", "inf"], r"sample_rate \(-s\): expected a positive"),
         (["-d", "inf"], r"duration \(-d\): expected a positive"),
         (["--seed", "-1"], r"seed: expected an integer >= 0, found -1"),
+        (["--process-noise", "-1"], r"process_noise: expected a finite number >= 0, found -1.0"),
+        (["--input-noise", "nan"], r"input_noise: expected a finite number >= 0, found nan"),
+        (["--uncertainty", "bogus"], r"uncertainty: expected one of \['sandwich', 'kkt'\]"),
     ],
 )
 def test_bad_flags_exit_2_before_any_work(tmp_path, capsys, flags, message):
@@ -244,3 +247,30 @@ def test_animate_flag_writes_a_real_time_gif(stored):
         assert gif.format == "GIF"
         # 5 s of motion played in real time at the default 30 frames per second.
         assert 145 <= gif.n_frames <= 152
+
+
+def test_noise_flags_reach_the_run_and_its_summary(tmp_path, capsys):
+    argv = [*SMALL, "--process-noise", "0.5", "--input-noise", "1.0", "--no-store"]
+    argv += ["--uncertainty", "kkt", "--json", str(tmp_path / "s.json")]
+    code, out, _ = run_cli(argv, capsys)
+    assert code == 0, out
+    summary = json.loads((tmp_path / "s.json").read_text())
+    settings = summary["settings"]
+    assert (settings["process_noise"], settings["input_noise"]) == (0.5, 1.0)
+    assert settings["noise_model"] is True
+    assert summary["uncertainty"]["method"] == "kkt"
+    assert "standard errors: kkt" in out
+    names = {s["name"]: s["kind"] for s in summary["residual_diagnostics"]["signals"]}
+    assert names == {
+        "q0": "tracking",
+        "q1": "tracking",
+        "F": "measured input",
+        "w1": "process noise",
+    }
+    # the exact-dynamics fit of the same data for comparison, sandwich errors by default
+    argv = [*SMALL, "--process-noise", "0.5", "--no-noise-model", "--no-store"]
+    argv += ["--json", str(tmp_path / "t.json")]
+    assert run_cli(argv, capsys)[0] == 0
+    other = json.loads((tmp_path / "t.json").read_text())
+    assert other["uncertainty"] == {"method": "sandwich", "blocks": round(101**0.5)}
+    assert {s["name"] for s in other["residual_diagnostics"]["signals"]} == {"q0", "q1"}

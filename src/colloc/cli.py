@@ -146,7 +146,11 @@ def _print_iteration(row: dict[str, float]) -> None:
 def build_parser() -> argparse.ArgumentParser:
     """The argument parser of the ``colloc`` command."""
     from colloc.identify.guesses import GAIN_GUESSES
-    from colloc.identify.pendulum_settings import SCHEME_NAMES, PendulumSettings
+    from colloc.identify.pendulum_settings import (
+        SCHEME_NAMES,
+        UNCERTAINTY_METHODS,
+        PendulumSettings,
+    )
     from colloc.store import DEFAULT_URL
 
     defaults = PendulumSettings()
@@ -221,6 +225,32 @@ def build_parser() -> argparse.ArgumentParser:
         "--check-true-gains",
         action="store_true",
         help="also solve with the gains fixed at the truth and report that objective",
+    )
+    p.add_argument(
+        "--process-noise",
+        type=_number,
+        default=defaults.process_noise,
+        metavar="STD",
+        help="motor noise on every joint torque, N m per sample (default %(default)s: none); "
+        "identified with a disturbance torque per joint unless --no-noise-model",
+    )
+    p.add_argument(
+        "--input-noise",
+        type=_number,
+        default=defaults.input_noise,
+        metavar="STD",
+        help="noise on the measured cart force, N (default %(default)s: exact); identified "
+        "as a measured input unless --no-noise-model",
+    )
+    p.add_argument(
+        "--no-noise-model",
+        action="store_true",
+        help="identify as if the dynamics and the cart force were exact (for comparison)",
+    )
+    p.add_argument(
+        "--uncertainty",
+        default=defaults.uncertainty,
+        help=f"standard errors: {', '.join(UNCERTAINTY_METHODS)} (default %(default)s)",
     )
     p.add_argument("--db", default=DEFAULT_URL, help="results database URL (default %(default)s)")
     p.add_argument("--no-store", action="store_true", help="do not store the run in the database")
@@ -334,6 +364,10 @@ def _pendulum(args: argparse.Namespace) -> int:
         hessian=args.hessian,
         seed=args.seed,
         check_true_gains=args.check_true_gains,
+        process_noise=args.process_noise,
+        input_noise=args.input_noise,
+        noise_model=not args.no_noise_model,
+        uncertainty=args.uncertainty,
     )
     if _report_problems("colloc pendulum", settings.problems()):
         return 2
@@ -349,6 +383,7 @@ def _pendulum(args: argparse.Namespace) -> int:
     )
     if run.objective_at_true_gains is not None:
         print(f"objective with the true gains: {run.objective_at_true_gains:.6g}")
+    method = run.uncertainty.method if run.uncertainty is not None else "none"
     print(f"\n{'gain':<8} {'known':>12} {'identified':>12} {'std error':>10} {'initial':>12}")
     for name, k, i, s, g in zip(
         run.gain_names,
@@ -359,6 +394,7 @@ def _pendulum(args: argparse.Namespace) -> int:
         strict=True,
     ):
         print(f"{name:<8} {k:12.5f} {i:12.5f} {s:10.5f} {g:12.5f}")
+    print(f"standard errors: {method}")
     print(f"max relative gain error: {run.max_rel_gain_error:.3%}")
     for note in run.notes:
         print(f"note: {note}")

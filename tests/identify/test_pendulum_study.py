@@ -165,6 +165,10 @@ def test_limited_memory_hessian_reaches_the_exact_hessians_optimum(runs):
         ({"duration": float("nan")}, r"duration \(-d\): expected a positive"),
         # A negative seed must be named as the culprit (numpy's own message does not).
         ({"seed": -1}, r"seed: expected an integer >= 0, found -1"),
+        ({"process_noise": -1.0}, r"process_noise: expected a finite number >= 0, found -1.0"),
+        ({"input_noise": float("nan")}, r"input_noise: expected a finite number >= 0, found nan"),
+        ({"uncertainty": "bootstrap"}, r"uncertainty: expected one of \['sandwich', 'kkt'\]"),
+        ({"noise_model": "yes"}, r"noise_model: expected True or False, found 'yes'"),
     ],
 )
 def test_bad_settings_are_rejected_before_any_work(changes, message):
@@ -191,3 +195,48 @@ def test_node_count_follows_duration_and_rate():
 
 def _fail_if_called(step: str, detail: str) -> None:
     raise AssertionError(f"work started ({step}: {detail}) before the settings were checked")
+
+
+# ----------------------------------------------------------------------------- noise model
+
+NOISE = {**NOISY, "initial_guess": "direct", "process_noise": 1.0, "input_noise": 2.5}
+
+
+@pytest.fixture(scope="module")
+def noisy_runs():
+    """Motor noise and a noisy force: identified with and without the noise model."""
+    return {
+        modelled: run_pendulum(
+            PendulumSettings(
+                **NOISE, noise_model=modelled, uncertainty="sandwich" if modelled else "kkt"
+            ),
+            cache=False,
+        )
+        for modelled in (True, False)
+    }
+
+
+def test_motor_and_force_noise_are_simulated_as_asked(noisy_runs, runs):
+    run = noisy_runs[True]
+    # the same seed without the noise options: same force, different motion
+    clean = runs["direct"]
+    np.testing.assert_array_equal(run.force, clean.force)
+    assert np.abs(run.true_states - clean.true_states).max() > 1e-3
+    spread = np.std(run.force_measured - run.force)
+    assert spread == pytest.approx(2.5, rel=0.1)
+    # both fits saw the same data
+    np.testing.assert_array_equal(run.measurements, noisy_runs[False].measurements)
+
+
+def test_noise_model_gives_estimates_within_their_error_bars(noisy_runs):
+    modelled, today = noisy_runs[True], noisy_runs[False]
+    assert modelled.uncertainty.method == "sandwich" and today.uncertainty.method == "kkt"
+    assert modelled.solution.success
+    assert modelled.max_gain_error_in_se < 3.5
+    # exact dynamics with KKT errors: overconfident, and its residuals say so
+    assert today.max_gain_error_in_se > 2 * modelled.max_gain_error_in_se
+    assert any("not white" in note for note in today.notes)
+    assert not any("not white" in note for note in modelled.notes)
+    # the estimated cart force and the disturbance torque are trajectories of the solution
+    names = set(modelled.solution.trajectories)
+    assert {"F", "w1"} <= {str(getattr(k, "func", k)) for k in names}

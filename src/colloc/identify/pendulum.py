@@ -13,6 +13,7 @@ from typing import Any
 
 import numpy as np
 import sympy as sm
+from sympy.physics.mechanics import dynamicsymbols
 
 from colloc.control.lqr import lqr
 from colloc.control.state_feedback import StateFeedback
@@ -20,13 +21,15 @@ from colloc.identify.direct import direct_estimate, smooth_with_derivatives
 from colloc.identify.guesses import GAIN_GUESSES
 from colloc.identify.pendulum_settings import SCHEME_NAMES, PendulumSettings
 from colloc.model.linearize import linearize
+from colloc.model.model import Model
 from colloc.model.symbols import name_of
 from colloc.models import pendulum_cart
 from colloc.nlp.objective import Tracking
 from colloc.nlp.problem import Problem
+from colloc.nlp.residuals import ResidualDiagnostics, residual_diagnostics
 from colloc.nlp.solution import Solution
 from colloc.nlp.uncertainty import ParameterUncertainty, parameter_uncertainty
-from colloc.simulate import ImplicitODE, SumOfSines, add_sensor_noise
+from colloc.simulate import ImplicitODE, SampledNoise, SumOfSines, add_sensor_noise
 from colloc.transcription import BackwardEuler, HermiteSimpson, Midpoint, Scheme, Trapezoidal
 
 #: The schemes by their command-line names (:data:`SCHEME_NAMES`).
@@ -60,6 +63,8 @@ class PendulumRun:
     lengths: np.ndarray
     objective_at_true_gains: float | None = None
     notes: list[str] = field(default_factory=list)
+    force_measured: np.ndarray | None = None
+    diagnostics: ResidualDiagnostics | None = None
 
     @property
     def gain_names(self) -> list[str]:
@@ -107,8 +112,10 @@ def run_pendulum(
     say = progress or (lambda step, detail: None)
     timings: dict[str, float] = {}
     t_all = time.perf_counter()
-    phase_rng, noise_rng, guess_rng = (
-        np.random.default_rng(s) for s in np.random.SeedSequence(settings.seed).spawn(3)
+    # children 0-2 as before the noise options, so their runs draw the same numbers
+    children = np.random.SeedSequence(settings.seed).spawn(5)
+    phase_rng, noise_rng, guess_rng, motor_rng, force_rng = (
+        np.random.default_rng(s) for s in children
     )
     n = settings.num_links
 
@@ -138,16 +145,30 @@ def run_pendulum(
     t0 = time.perf_counter()
     force_fn = SumOfSines.from_seed(settings.force_amplitude, int(phase_rng.integers(2**31)))
     times = np.arange(settings.num_nodes) / settings.sample_rate
+    motor = dict(zip(plant.torques, dynamicsymbols(f"w1:{n + 1}"), strict=True))
+    gain_values = dict(zip(gain_symbols, known, strict=True))
+    if settings.process_noise:
+        noise_fns = {
+            w: SampledNoise.draw(times, settings.process_noise, int(motor_rng.integers(2**31)))
+            for w in motor.values()
+        }
+        plant_model = model.with_disturbances(motor).close_loop(feedback)
+    else:
+        noise_fns, plant_model = {}, closed
     ode = ImplicitODE.from_model(
-        closed,
-        {**constants, **dict(zip(gain_symbols, known, strict=True))},
-        {plant.force: force_fn},
+        plant_model, {**constants, **gain_values}, {plant.force: force_fn, **noise_fns}
     )
     true_states = ode.simulate(np.zeros(num_states), times)
     force = force_fn(times)
+    force_measured = force
+    if settings.input_noise:
+        force_measured = add_sensor_noise(
+            force, settings.input_noise, int(force_rng.integers(2**31))
+        )
     coords = true_states[:, : n + 1]
+    angle_std = np.deg2rad(settings.noise_std_deg)
     if settings.sensor_noise:
-        std = [settings.cart_noise_std] + [np.deg2rad(settings.noise_std_deg)] * n
+        std = [settings.cart_noise_std] + [angle_std] * n
         measured = add_sensor_noise(coords, np.asarray(std), int(noise_rng.integers(2**31)))
     else:
         measured = coords.copy()
@@ -155,16 +176,10 @@ def run_pendulum(
 
     say("build", f"{settings.scheme} collocation, N = {settings.num_nodes}")
     t0 = time.perf_counter()
-    tracking = Tracking(dict(zip(plant.coordinates, measured.T, strict=True)))
-    problem = Problem(
-        closed,
-        times,
-        scheme=SCHEMES[settings.scheme](),
-        known_trajectories={plant.force: force},
-        known_parameters=constants,
-        objective=tracking,
-        cache=cache,
+    setup = _identification_setup(
+        settings, model, feedback, plant, motor, measured, force_measured, angle_std
     )
+    problem = setup.problem(times, constants, cache)
     timings["build"] = time.perf_counter() - t0
     q_s, qd_s, qdd_s = smooth_with_derivatives(times, measured, settings.smoothing_window)
     x_guess = np.hstack([q_s, qd_s])
@@ -172,15 +187,13 @@ def run_pendulum(
 
     def direct() -> np.ndarray:
         estimate = direct_estimate(
-            closed, gain_symbols, times, x_guess, xd_guess, {plant.force: force}, constants
+            closed, gain_symbols, times, x_guess, xd_guess, {plant.force: force_measured}, constants
         )
         return np.array([estimate[k] for k in gain_symbols])
 
     initial = GAIN_GUESSES[settings.initial_guess](known, guess_rng, direct)
-    z0 = problem.initial_guess(
-        dict(zip(closed.states, x_guess.T, strict=True)),
-        dict(zip(gain_symbols, initial, strict=True)),
-    )
+    state_guess = dict(zip(closed.states, x_guess.T, strict=True))
+    z0 = problem.initial_guess(state_guess, dict(zip(gain_symbols, initial, strict=True)))
 
     say("solve", f"IPOPT, {settings.hessian} Hessian, {len(gain_symbols)} gains")
     solution = problem.solve(z0, hessian=settings.hessian, progress=iterations)
@@ -190,10 +203,13 @@ def run_pendulum(
     se = np.full(len(gain_symbols), np.nan)
     notes = []
     try:
-        uncertainty = parameter_uncertainty(problem, solution, measured.size)
+        uncertainty = parameter_uncertainty(problem, solution, method=settings.uncertainty)
         se = np.array([uncertainty.standard_errors[k] for k in gain_symbols])
     except ValueError as exc:
         notes.append(f"no standard errors: {exc}")
+    diagnostics = residual_diagnostics(problem, solution.z, setup.reference_std**2)
+    if settings.sensor_noise:  # without noise the size check states the obvious
+        notes.extend(diagnostics.warnings)
     identified_states = np.column_stack([solution.trajectories[x] for x in closed.states])
     defects = problem.defects(solution.z)
     timings["total"] = time.perf_counter() - t_all
@@ -201,15 +217,7 @@ def run_pendulum(
     if settings.check_true_gains:
         t0 = time.perf_counter()
         say("check", "objective with the gains fixed at the truth")
-        fixed = Problem(
-            closed,
-            times,
-            scheme=SCHEMES[settings.scheme](),
-            known_trajectories={plant.force: force},
-            known_parameters={**constants, **dict(zip(gain_symbols, known, strict=True))},
-            objective=tracking,
-            cache=cache,
-        )
+        fixed = setup.problem(times, {**constants, **gain_values}, cache)
         ref = fixed.solve(fixed.initial_guess(dict(zip(closed.states, true_states.T, strict=True))))
         true_objective = float(ref.stats["objective"])
         timings["check"] = time.perf_counter() - t0
@@ -234,4 +242,67 @@ def run_pendulum(
         lengths,
         true_objective,
         notes,
+        force_measured,
+        diagnostics,
     )
+
+
+@dataclass(frozen=True)
+class _Setup:
+    """The identification's model, data and noise model (shared by the check's problem)."""
+
+    model: Model
+    tracking: Tracking
+    known_trajectories: dict[sm.Basic, np.ndarray]
+    measured_inputs: dict[sm.Basic, tuple[np.ndarray, float]]
+    process_noise: dict[sm.Basic, float]
+    scheme: str
+    reference_std: float
+
+    def problem(self, times: np.ndarray, known: dict[sm.Symbol, float], cache: Any) -> Problem:
+        return Problem(
+            self.model,
+            times,
+            scheme=SCHEMES[self.scheme](),
+            known_trajectories=self.known_trajectories,
+            known_parameters=known,
+            objective=self.tracking,
+            cache=cache,
+            process_noise=self.process_noise,
+            measured_inputs=self.measured_inputs,
+        )
+
+
+def _identification_setup(
+    settings: PendulumSettings,
+    model: Model,
+    feedback: StateFeedback,
+    plant: pendulum_cart.PendulumCart,
+    motor: dict[sm.Basic, sm.Basic],
+    measured: np.ndarray,
+    force_measured: np.ndarray,
+    angle_std: float,
+) -> _Setup:
+    """Today's exact-dynamics fit, or the noise model's maximum a posteriori one.
+
+    Weights are relative to the angle noise's variance (1 for the angles, as without a
+    noise model), so every standard deviation of the noise model is divided by it.
+    """
+    ref = angle_std if angle_std > 0 else 1.0
+    cart_weight = (ref / settings.cart_noise_std) ** 2 if settings.cart_noise_std > 0 else 1.0
+    modelled = settings.noise_model
+    weights = None
+    if modelled and (settings.process_noise or settings.input_noise):
+        weights = {plant.coordinates[0]: cart_weight}
+    tracking = Tracking(dict(zip(plant.coordinates, measured.T, strict=True)), weights)
+    if modelled and settings.process_noise:
+        closed = model.with_disturbances(motor).close_loop(feedback)
+        process_noise = {w: settings.process_noise / ref for w in motor.values()}
+    else:
+        closed, process_noise = model.close_loop(feedback), {}
+    if modelled and settings.input_noise:
+        known: dict[sm.Basic, np.ndarray] = {}
+        inputs = {plant.force: (force_measured, settings.input_noise / ref)}
+    else:
+        known, inputs = {plant.force: force_measured}, {}
+    return _Setup(closed, tracking, known, inputs, process_noise, settings.scheme, ref)

@@ -42,6 +42,11 @@ def pendulum_summary(run: PendulumRun, run_id: str) -> dict[str, Any]:
                 strict=True,
             )
         },
+        "uncertainty": {
+            "method": run.uncertainty.method if run.uncertainty is not None else None,
+            "blocks": run.uncertainty.blocks if run.uncertainty is not None else None,
+        },
+        "residual_diagnostics": run.diagnostics.as_dict() if run.diagnostics else None,
         "max_rel_gain_error": run.max_rel_gain_error,
         "max_gain_error_in_std_errors": _num(run.max_gain_error_in_se),
         "ipopt": {

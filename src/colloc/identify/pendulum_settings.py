@@ -13,6 +13,9 @@ import numpy as np
 
 from colloc.identify.guesses import GAIN_GUESSES
 
+#: The standard-error methods of :func:`colloc.parameter_uncertainty`, honest one first.
+UNCERTAINTY_METHODS = ("sandwich", "kkt")
+
 #: Command-line names of the collocation schemes, in the order ``--help`` lists them.
 SCHEME_NAMES = ("midpoint", "backward-euler", "trapezoidal", "hermite-simpson")
 
@@ -47,6 +50,20 @@ class PendulumSettings:
         Seconds; Savitzky-Golay window for the state guess and direct identification.
     check_true_gains : bool
         Also solve with the gains fixed at the truth, to compare objectives.
+    process_noise : float
+        Standard deviation (N m) of white motor noise added to every joint torque in the
+        simulation, drawn per sample and linear between samples; 0: none.
+    input_noise : float
+        Standard deviation (N) of the noise on the measured cart force; 0: the force is
+        known exactly.
+    noise_model : bool
+        Identify with the simulated noise modelled: a disturbance torque per joint
+        penalised by ``process_noise``, the cart force a measured input tracked with
+        ``input_noise`` (maximum a posteriori). False: today's model (exact dynamics, the
+        measured force taken as exact), for comparison.
+    uncertainty : str
+        ``"sandwich"`` (robust, the default) or ``"kkt"`` standard errors (see
+        :func:`colloc.parameter_uncertainty`).
     """
 
     num_links: int = 1
@@ -62,6 +79,10 @@ class PendulumSettings:
     seed: int = 0
     smoothing_window: float = 0.15
     check_true_gains: bool = False
+    process_noise: float = 0.0
+    input_noise: float = 0.0
+    noise_model: bool = True
+    uncertainty: str = "sandwich"
 
     @property
     def num_nodes(self) -> int:
@@ -102,7 +123,22 @@ class PendulumSettings:
             out.append(f"seed: expected an integer >= 0, found {self.seed!r}")
         if self.hessian not in ("exact", "limited-memory"):
             out.append(f"hessian: expected 'exact' or 'limited-memory', found {self.hessian!r}")
-        for name in ("noise_std_deg", "cart_noise_std", "force_amplitude", "smoothing_window"):
+        if self.uncertainty not in UNCERTAINTY_METHODS:
+            out.append(
+                f"uncertainty: expected one of {list(UNCERTAINTY_METHODS)}, "
+                f"found {self.uncertainty!r}"
+            )
+        if not isinstance(self.noise_model, bool):
+            out.append(f"noise_model: expected True or False, found {self.noise_model!r}")
+        names = (
+            "noise_std_deg",
+            "cart_noise_std",
+            "force_amplitude",
+            "smoothing_window",
+            "process_noise",
+            "input_noise",
+        )
+        for name in names:
             value = getattr(self, name)
             if not (isinstance(value, int | float) and np.isfinite(value) and value >= 0):
                 out.append(f"{name}: expected a finite number >= 0, found {value!r}")

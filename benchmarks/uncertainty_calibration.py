@@ -1,0 +1,198 @@
+"""Are the error bars honest? Bias, spread and coverage of the pendulum gains over noise realisations.
+
+For the 1- and 2-link cart pendulum and three kinds of data:
+  (a) sensor noise only;
+  (b) plus motor noise on every joint torque, of standard deviation a tenth of the
+      controller's rms torque (measured on the noise-free closed loop);
+  (c) plus noise on the measured cart force, a tenth of the force's rms;
+each realisation (seed) is identified twice: by today's method (exact dynamics, the measured
+force taken as exact, KKT standard errors) and by the new one (the noise model's maximum a
+posteriori fit with sandwich standard errors). Per gain: bias, spread, mean reported
+standard error and the fraction of estimates within 2 and 3 standard errors.
+
+Usage: python benchmarks/uncertainty_calibration.py [--links 1 2] [--cases a b c]
+       [--realisations 50] [--duration 30] [--workers 2]
+       [--out benchmarks/results/uncertainty_calibration.json]
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import time
+from concurrent.futures import ProcessPoolExecutor
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+METHODS = {
+    "today": {"noise_model": False, "uncertainty": "kkt"},
+    "new": {"noise_model": True, "uncertainty": "sandwich"},
+}
+
+
+def noise_levels(num_links: int, duration: float) -> dict[str, float]:
+    """A tenth of the controller's rms torque and of the cart force's rms (noise free)."""
+    from colloc.identify.pendulum import PendulumSettings, run_pendulum
+
+    run = run_pendulum(PendulumSettings(num_links=num_links, duration=duration))
+    K = run.known_gains.reshape(num_links, -1)
+    torques = run.true_states @ K.T
+    return {
+        "process_noise": float(np.sqrt(np.mean(torques**2))) / 10.0,
+        "input_noise": float(np.sqrt(np.mean(run.force**2))) / 10.0,
+    }
+
+
+def one(task: dict[str, Any]) -> dict[str, Any]:
+    """Both methods on one realisation."""
+    from colloc.identify.pendulum import PendulumSettings, run_pendulum
+
+    out: dict[str, Any] = {"seed": task["seed"]}
+    for name, method in METHODS.items():
+        t0 = time.perf_counter()
+        settings = PendulumSettings(
+            num_links=task["links"],
+            duration=task["duration"],
+            sensor_noise=True,
+            initial_guess="direct",
+            seed=task["seed"],
+            process_noise=task["process_noise"],
+            input_noise=task["input_noise"],
+            **method,
+        )
+        run = run_pendulum(settings)
+        out[name] = {
+            "success": bool(run.solution.stats["success"]),
+            "gains": run.identified_gains.tolist(),
+            "std_errors": run.standard_errors.tolist(),
+            "seconds": time.perf_counter() - t0,
+            "warnings": len(run.diagnostics.warnings) if run.diagnostics else 0,
+        }
+        out["known"] = run.known_gains.tolist()
+    return out
+
+
+def summarise(runs: list[dict[str, Any]], method: str) -> dict[str, Any]:
+    """Bias, spread, mean SE and coverage per gain over the successful realisations."""
+    ok = [r for r in runs if r[method]["success"]]
+    known = np.array(runs[0]["known"])
+    est = np.array([r[method]["gains"] for r in ok])
+    se = np.array([r[method]["std_errors"] for r in ok])
+    err = est - known
+    z = np.abs(err) / se
+    bias = err.mean(axis=0)
+    return {
+        "realisations": len(ok),
+        "failed": len(runs) - len(ok),
+        "bias": bias.tolist(),
+        "relative_bias": (bias / np.abs(known)).tolist(),
+        "mean_abs_relative_bias": float(np.mean(np.abs(bias / known))),
+        "spread": err.std(axis=0, ddof=1).tolist(),
+        "mean_std_error": se.mean(axis=0).tolist(),
+        "within_2_se": float(np.mean(z <= 2)),
+        "within_3_se": float(np.mean(z <= 3)),
+        "within_3_se_per_gain": np.mean(z <= 3, axis=0).tolist(),
+        "mean_seconds": float(np.mean([r[method]["seconds"] for r in ok])),
+        "runs_with_warnings": int(sum(r[method]["warnings"] > 0 for r in ok)),
+    }
+
+
+def figure(results: list[dict[str, Any]], path: Path) -> None:
+    """Coverage within 3 SE and mean |relative bias| per case, today against new."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    labels = [f"{r['links']}-link ({r['case']})" for r in results]
+    x = np.arange(len(results))
+    fig, (a1, a2) = plt.subplots(1, 2, figsize=(11, 4))
+    for i, method in enumerate(METHODS):
+        a1.bar(x + 0.4 * i - 0.2, [r[method]["within_3_se"] for r in results], 0.4, label=method)
+        a2.bar(
+            x + 0.4 * i - 0.2,
+            [100 * r[method]["mean_abs_relative_bias"] for r in results],
+            0.4,
+            label=method,
+        )
+    a1.axhline(0.9, color="k", lw=0.8, ls="--")
+    a1.set_ylabel("fraction of estimates within 3 reported SE")
+    a2.set_ylabel("mean |bias| of the gains, % of the gain")
+    for a in (a1, a2):
+        a.set_xticks(x, labels, rotation=30, ha="right")
+        a.legend()
+    fig.tight_layout()
+    fig.savefig(path, dpi=120)
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--links", type=int, nargs="+", default=[1, 2])
+    parser.add_argument("--cases", nargs="+", default=["a", "b", "c"], choices=["a", "b", "c"])
+    parser.add_argument("--realisations", type=int, default=50)
+    parser.add_argument("--duration", type=float, default=30.0)
+    parser.add_argument("--workers", type=int, default=min(2, os.cpu_count() or 1))
+    parser.add_argument(
+        "--out", type=Path, default=Path("benchmarks/results/uncertainty_calibration.json")
+    )
+    args = parser.parse_args()
+    results = []
+    for links in args.links:
+        levels = noise_levels(links, args.duration)
+        print(f"{links}-link noise levels: {levels}", flush=True)
+        for case in args.cases:
+            pn = levels["process_noise"] if case in "bc" else 0.0
+            fn = levels["input_noise"] if case == "c" else 0.0
+            tasks = [
+                {
+                    "links": links,
+                    "duration": args.duration,
+                    "seed": seed,
+                    "process_noise": pn,
+                    "input_noise": fn,
+                }
+                for seed in range(args.realisations)
+            ]
+            t0 = time.perf_counter()
+            with ProcessPoolExecutor(args.workers) as pool:
+                runs = list(pool.map(one, tasks))
+            same = max(
+                float(
+                    np.max(
+                        np.abs(np.subtract(r["new"]["gains"], r["today"]["gains"]))
+                        / np.abs(r["known"])
+                    )
+                )
+                for r in runs
+            )
+            record = {
+                "links": links,
+                "case": case,
+                "process_noise": pn,
+                "input_noise": fn,
+                "duration": args.duration,
+                "wall_seconds": time.perf_counter() - t0,
+                "today": summarise(runs, "today"),
+                "new": summarise(runs, "new"),
+                "max_rel_difference_new_vs_today": same,
+                "runs": runs,
+            }
+            results.append(record)
+            brief = {k: v for k, v in record.items() if k != "runs"}
+            for m in METHODS:
+                brief[m] = {
+                    k: brief[m][k]
+                    for k in ("mean_abs_relative_bias", "within_2_se", "within_3_se", "failed")
+                }
+            print(json.dumps(brief), flush=True)
+            args.out.parent.mkdir(parents=True, exist_ok=True)
+            args.out.write_text(json.dumps(results, indent=1) + "\n")
+    figure(results, args.out.with_suffix(".png"))
+    print(f"-> {args.out} and {args.out.with_suffix('.png')}")
+
+
+if __name__ == "__main__":
+    main()
