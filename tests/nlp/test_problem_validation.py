@@ -246,7 +246,10 @@ def test_objective_terms_must_be_objective_objects(model, objective):
 @pytest.mark.parametrize(
     ("measurements", "pattern"),
     [
-        ({r: np.zeros(5)}, r"Tracking: r is not an output of the model \(outputs: \['q', 'u'\]\)"),
+        (
+            {dynamicsymbols("s"): np.zeros(5)},
+            r"Tracking: s is not an output or input of the model \(outputs: \['q', 'u'\], inputs",
+        ),
         (
             {q: np.zeros(4)},
             r"measurements of q: expected shape \(5,\) \(one per node\), found \(4,",
