@@ -205,6 +205,13 @@ def test_bad_noise_options_are_all_reported_at_once():
     text = str(info.value)
     assert f"expected {N} values (one per node), found shape (5,)" in text
     assert "standard deviation: expected a finite standard deviation > 0, found nan" in text
+    with pytest.raises(ProblemDefinitionError) as info:
+        Problem(plant(), TIMES, measured_inputs=[F], process_noise=3.0, known_parameters={m: 1})
+    text = str(info.value)
+    assert "measured_inputs: expected a mapping input -> (values, standard deviation)" in text
+    assert (
+        "process_noise: expected a mapping disturbance -> standard deviation, found float" in text
+    )
     with pytest.raises(ProblemDefinitionError, match="expected a pair"):
         Problem(plant(), TIMES, measured_inputs={F: FORCE}, known_parameters={m: MASS})
 

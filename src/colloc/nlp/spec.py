@@ -271,16 +271,21 @@ def _standard_deviation(value: Any, where: str, problems: list[str]) -> float | 
     return std
 
 
+def _is_mapping(value: Any, name: str, expected: str, problems: list[str]) -> bool:
+    if isinstance(value, Mapping):
+        return True
+    problems.append(f"{name}: expected a mapping {expected}, found {type(value).__name__}")
+    return False
+
+
 def check_process_noise(
     model: Model, process_noise: Mapping[sm.Basic, Any], problems: list[str]
 ) -> dict[sm.Basic, float]:
     """Disturbance trajectory -> its standard deviation per node; each an unknown input."""
     out: dict[sm.Basic, float] = {}
-    if not isinstance(process_noise, Mapping):
-        problems.append(
-            "process_noise: expected a mapping disturbance -> standard deviation, found "
-            f"{type(process_noise).__name__}"
-        )
+    if not _is_mapping(
+        process_noise, "process_noise", "disturbance -> standard deviation", problems
+    ):
         return out
     for w, value in process_noise.items():
         if w not in model.unknown_inputs:
@@ -305,11 +310,9 @@ def check_measured_inputs(
 ) -> dict[sm.Basic, tuple[np.ndarray, float]]:
     """Input -> (measured values per node, NaN where missing; standard deviation)."""
     out: dict[sm.Basic, tuple[np.ndarray, float]] = {}
-    if not isinstance(measured, Mapping):
-        problems.append(
-            "measured_inputs: expected a mapping input -> (values, standard deviation), found "
-            f"{type(measured).__name__}"
-        )
+    if not _is_mapping(
+        measured, "measured_inputs", "input -> (values, standard deviation)", problems
+    ):
         return out
     for r, entry in measured.items():
         where = f"measured_inputs[{name_of(r)}]"
