@@ -147,16 +147,18 @@ def run_pendulum(
     times = np.arange(settings.num_nodes) / settings.sample_rate
     motor = dict(zip(plant.torques, dynamicsymbols(f"w1:{n + 1}"), strict=True))
     gain_values = dict(zip(gain_symbols, known, strict=True))
+    # the closed loop with motor noise on every torque: simulated, and identified when the
+    # noise is modelled
+    disturbed = closed
+    noise_fns = {}
     if settings.process_noise:
         noise_fns = {
             w: SampledNoise.draw(times, settings.process_noise, int(motor_rng.integers(2**31)))
             for w in motor.values()
         }
-        plant_model = model.with_disturbances(motor).close_loop(feedback)
-    else:
-        noise_fns, plant_model = {}, closed
+        disturbed = model.with_disturbances(motor).close_loop(feedback)
     ode = ImplicitODE.from_model(
-        plant_model, {**constants, **gain_values}, {plant.force: force_fn, **noise_fns}
+        disturbed, {**constants, **gain_values}, {plant.force: force_fn, **noise_fns}
     )
     true_states = ode.simulate(np.zeros(num_states), times)
     force = force_fn(times)
@@ -177,7 +179,7 @@ def run_pendulum(
     say("build", f"{settings.scheme} collocation, N = {settings.num_nodes}")
     t0 = time.perf_counter()
     setup = _identification_setup(
-        settings, model, feedback, plant, motor, measured, force_measured, angle_std
+        settings, closed, disturbed, plant, measured, force_measured, angle_std
     )
     problem = setup.problem(times, constants, cache)
     timings["build"] = time.perf_counter() - t0
@@ -275,10 +277,9 @@ class _Setup:
 
 def _identification_setup(
     settings: PendulumSettings,
-    model: Model,
-    feedback: StateFeedback,
+    closed: Model,
+    disturbed: Model,
     plant: pendulum_cart.PendulumCart,
-    motor: dict[sm.Basic, sm.Basic],
     measured: np.ndarray,
     force_measured: np.ndarray,
     angle_std: float,
@@ -295,14 +296,13 @@ def _identification_setup(
     if modelled and (settings.process_noise or settings.input_noise):
         weights = {plant.coordinates[0]: cart_weight}
     tracking = Tracking(dict(zip(plant.coordinates, measured.T, strict=True)), weights)
+    identified, process_noise = closed, {}
     if modelled and settings.process_noise:
-        closed = model.with_disturbances(motor).close_loop(feedback)
-        process_noise = {w: settings.process_noise / ref for w in motor.values()}
-    else:
-        closed, process_noise = model.close_loop(feedback), {}
+        identified = disturbed
+        process_noise = {w: settings.process_noise / ref for w in disturbed.unknown_inputs}
     if modelled and settings.input_noise:
         known: dict[sm.Basic, np.ndarray] = {}
         inputs = {plant.force: (force_measured, settings.input_noise / ref)}
     else:
         known, inputs = {plant.force: force_measured}, {}
-    return _Setup(closed, tracking, known, inputs, process_noise, settings.scheme, ref)
+    return _Setup(identified, tracking, known, inputs, process_noise, settings.scheme, ref)
