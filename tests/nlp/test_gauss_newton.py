@@ -13,12 +13,73 @@ import numpy as np
 import pytest
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
-from test_schedule_engine import identification_problem, q1
+from sympy.physics.mechanics import dynamicsymbols
+from test_schedule_engine import (
+    F1,
+    F2,
+    ID_STRIKES,
+    PLANT,
+    T1,
+    T2,
+    closed_toy,
+    excitation,
+    identification_problem,
+    identification_times,
+    phase_from_strikes,
+    q1,
+    q2,
+    reference_torque,
+    simulate,
+    true_schedule,
+    u1,
+    u2,
+)
 
-from colloc import GaussNewtonOptions, ProblemDefinitionError
+from colloc import GaussNewtonOptions, Problem, ProblemDefinitionError, Tracking
 from colloc.model.symbols import name_of
 from colloc.solve import ChainStructure, solve_gauss_newton
 from colloc.transcription import BackwardEuler, HermiteSimpson, Midpoint
+
+w1, w2 = dynamicsymbols("w1 w2")
+SIGMA_Q, SIGMA_T, SIGMA_F, SIGMA_W = 0.01, 0.05, 0.05, 0.3
+
+
+def noise_model_problem(scheme, torques=False):
+    """The toy with motor noise on both torques (free at every node, penalised by
+    ``1/sigma^2``) and ``F1`` measured with noise (a free trajectory tracked to its
+    measurement), fitted to noisy positions (and torques); starts at the measured states."""
+    closed, gs = closed_toy(
+        "full", outputs=[q1, q2, T1, T2] if torques else None, disturbances={T1: w1, T2: w2}
+    )
+    Tstar, K = true_schedule("full")
+    times = identification_times()
+    X, F = simulate(Tstar, K, times), excitation(times)
+    rng = np.random.default_rng(11)
+    noisy = X + rng.normal(0.0, SIGMA_Q, X.shape)
+    measured = {q1: noisy[:, 0], q2: noisy[:, 1]}
+    weights = {q1: SIGMA_Q**-2, q2: SIGMA_Q**-2}
+    phase = phase_from_strikes(times, ID_STRIKES)
+    if torques:
+        tau = reference_torque(phase, X, Tstar, K) + rng.normal(0.0, SIGMA_T, (times.size, 2))
+        measured.update({T1: tau[:, 0], T2: tau[:, 1]})
+        weights.update({T1: SIGMA_T**-2, T2: SIGMA_T**-2})
+    problem = Problem(
+        closed,
+        times,
+        scheme=scheme,
+        known_trajectories={gs.phase: phase, F2: F[:, 1]},
+        measured_inputs={F1: (F[:, 0] + rng.normal(0.0, SIGMA_F, times.size), SIGMA_F)},
+        process_noise={w1: SIGMA_W, w2: SIGMA_W},
+        known_parameters=PLANT,
+        objective=Tracking(measured, weights),
+        cache=False,
+    )
+    rates = np.gradient(noisy[:, :2], times, axis=0)
+    guess = problem.initial_guess(
+        {q1: noisy[:, 0], q2: noisy[:, 1], u1: rates[:, 0], u2: rates[:, 1]},
+        gs.parameter_values(1.1 * Tstar, 0.9 * K),
+    )
+    return problem, guess
 
 
 def toy_problem(scheme, bounds=None, torques=False):
@@ -146,3 +207,56 @@ def test_ipopt_with_the_gauss_newton_hessian_reaches_the_same_optimum(solved):
     assert solution.status.success
     scale = np.abs(reference.z).max()
     np.testing.assert_allclose(solution.z, reference.z, atol=1e-6 * scale)
+
+
+@pytest.fixture(
+    scope="module",
+    params=[
+        (BackwardEuler(), False),
+        (Midpoint(), False),
+        (Midpoint(), True),
+    ],
+    ids=["be", "midpoint", "midpoint-torques"],
+)
+def noise_model(request):
+    scheme, torques = request.param
+    problem, guess = noise_model_problem(scheme, torques)
+    reference = problem.solve(guess, print_level=0, tol=1e-12)
+    assert reference.status.success
+    return problem, guess, reference
+
+
+@pytest.mark.parametrize("segment", [7, 1000])
+def test_free_inputs_reach_ipopts_optimum(noise_model, segment):
+    """Disturbances and a measured input at every node (eliminated inside each segment):
+    the same optimum, disturbances included, as IPOPT on the full NLP."""
+    problem, guess, reference = noise_model
+    assert problem.chain_structure().input_index.shape == (problem.layout.num_nodes, 3)
+    options = GaussNewtonOptions(segment_nodes=segment, tol=1e-14, constraint_tol=1e-11)
+    solution = problem.solve_gauss_newton(guess, options)
+    assert solution.status.success
+    for symbol in (w1, w2, F1, q1, u2):
+        expected = reference.trajectories[symbol]
+        np.testing.assert_allclose(
+            solution.trajectories[symbol], expected, atol=1e-6 * np.abs(expected).max()
+        )
+    estimated = np.array(list(solution.parameters.values()))
+    expected = np.array([reference.parameters[p] for p in solution.parameters])
+    np.testing.assert_allclose(estimated, expected, atol=1e-6 * np.abs(expected).max())
+
+
+def test_first_step_with_free_inputs_equals_a_direct_kkt_solve(noise_model):
+    problem, guess, _ = noise_model
+    nlp = problem.nlp
+    jr, jc = nlp.jacobianstructure()
+    J = sp.csr_matrix((nlp.jacobian(guess), (jr, jc)), shape=(nlp.m, nlp.n))
+    hr, hc = nlp.hessianstructure()
+    Hl = sp.csr_matrix((nlp.gauss_newton_hessian(guess), (hr, hc)), (nlp.n, nlp.n))
+    H = Hl + sp.triu(Hl.T, 1)
+    kkt = sp.bmat([[H, J.T], [J, None]], format="csc")
+    rhs = np.r_[-nlp.gradient(guess), -nlp.constraints(guess)]
+    direct = spla.spsolve(kkt, rhs)[: nlp.n]
+    options = GaussNewtonOptions(segment_nodes=13, max_iter=1, damping=1e-14)
+    result = solve_gauss_newton(nlp, guess, problem.chain_structure(), options)
+    alpha = result.history[0]["alpha"]
+    np.testing.assert_allclose((result.x - guess) / alpha, direct, atol=1e-7 * np.abs(direct).max())

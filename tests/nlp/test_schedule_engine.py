@@ -38,7 +38,7 @@ PLANT = {m1: 1.0, m2: 1.4, c: 0.4, k1: 5.0, k2: 3.0, kc: 1.5}
 P = 5
 
 
-def closed_toy(structure="full", points=P, outputs=None):
+def closed_toy(structure="full", points=P, outputs=None, disturbances=None):
     residual = [
         q1.diff(t) - u1,
         q2.diff(t) - u2,
@@ -48,6 +48,8 @@ def closed_toy(structure="full", points=P, outputs=None):
     model = Model.from_equations(
         residual, STATES, controlled_inputs=[T1, T2], known_inputs=[F1, F2], outputs=outputs
     )
+    if disturbances:
+        model = model.with_disturbances(disturbances)
     gs = GainScheduled(points, STATES, [T1, T2], structure=structure)
     return model.close_loop(gs), gs
 

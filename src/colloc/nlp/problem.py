@@ -399,8 +399,9 @@ class Problem:
         ------
         ProblemDefinitionError
             When the problem is not a one-step chain: a scheme with interval or derivative
-            variables (Hermite-Simpson, trapezoidal), free input trajectories, node or
-            instance constraints, or bounds.
+            variables (Hermite-Simpson, trapezoidal), node or instance constraints, or
+            bounds. Free input trajectories (disturbances, measured inputs) are node
+            variables of the chain.
         """
         lay, problems = self.layout, []
         n = self.model.num_states
@@ -409,9 +410,6 @@ class Problem:
                 f"scheme: the Gauss-Newton solver needs a one-step scheme with states only at "
                 f"the nodes (BackwardEuler, Midpoint), found {self.scheme!r}"
             )
-        if self.partition.free_inputs:
-            names = [name_of(r) for r in self.partition.free_inputs]
-            problems.append(f"free inputs {names}: the Gauss-Newton solver needs every input known")
         others = [b.name for b in lay.blocks if b.item != "interval"]
         if others:
             problems.append(
@@ -423,10 +421,12 @@ class Problem:
         raise_if_any(problems, ProblemDefinitionError)
         N = lay.num_nodes
         block = lay.blocks[0]
+        first = np.arange(N)[:, None] * lay.num_node_variables
         return ChainStructure(
-            node_index=(np.arange(N)[:, None] * lay.num_node_variables + np.arange(n)),
+            node_index=first + np.arange(n),
             parameter_index=np.arange(lay.parameter_offset, lay.num_variables),
             interval_rows=block.offset + np.arange(block.size).reshape(N - 1, n),
+            input_index=first + n + np.arange(len(self.partition.free_inputs)),
         )
 
     def solve_gauss_newton(

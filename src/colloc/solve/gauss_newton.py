@@ -59,11 +59,16 @@ class ChainStructure:
         Free-vector index of each global parameter.
     interval_rows : ndarray of int, shape (N - 1, n)
         Constraint row of defect ``i`` of interval ``k`` (between nodes ``k`` and ``k + 1``).
+    input_index : ndarray of int, shape (N, m), optional
+        Free-vector index of free input ``j`` at node ``k`` (disturbances, measured inputs):
+        node-local unknowns that the defects of the node's two intervals and the node's
+        objective terms may depend on. None (or ``m = 0``) when every input is known.
     """
 
     node_index: np.ndarray
     parameter_index: np.ndarray
     interval_rows: np.ndarray
+    input_index: np.ndarray | None = None
 
     def __post_init__(self) -> None:
         N, n = np.shape(self.node_index)
@@ -74,6 +79,20 @@ class ChainStructure:
             )
         if N < 2:
             raise ValueError(f"node_index: expected at least 2 nodes, found {N}")
+        if self.input_index is not None and (
+            np.ndim(self.input_index) != 2 or np.shape(self.input_index)[0] != N
+        ):
+            raise ValueError(
+                f"input_index: expected shape ({N}, m) for {N} nodes, "
+                f"found {np.shape(self.input_index)}"
+            )
+
+    @property
+    def node_variables(self) -> np.ndarray:
+        """``(N, n + m)``: each node's states, then its free inputs."""
+        if self.input_index is None:
+            return np.asarray(self.node_index)
+        return np.concatenate([self.node_index, self.input_index], axis=1)
 
 
 @dataclass(frozen=True)
@@ -132,23 +151,30 @@ class _WallTime(Exception):
 
 @dataclass
 class _Blocks:
-    """The linearization at one iterate, in chain form."""
+    """The linearization at one iterate, in chain form (``v_k``: node ``k``'s states, then its
+    free inputs; ``n`` states, ``nv`` node variables)."""
 
-    D: np.ndarray  # (N-1, n, n) d c_k / d x_k
-    E: np.ndarray  # (N-1, n, n) d c_k / d x_{k+1}
+    D: np.ndarray  # (N-1, n, nv) d c_k / d v_k
+    E: np.ndarray  # (N-1, n, nv) d c_k / d v_{k+1}
     T: np.ndarray  # (N-1, n, width) d c_k / d theta on the interval's own columns
     c: np.ndarray  # (N-1, n)
-    A: np.ndarray  # (N-1, n, n) -E_k^{-1} D_k
+    A: np.ndarray  # (N-1, n, nv) -E_k^{-1} D_k, E_k the state part of d c_k / d v_{k+1}
+    Bu: np.ndarray  # (N-1, n, nv - n) -E_k^{-1} d c_k / d u_{k+1}
     B: np.ndarray  # (N-1, n, width) -E_k^{-1} T_k
     a: np.ndarray  # (N-1, n) -E_k^{-1} c_k
     gradient: np.ndarray  # (num_variables,) objective gradient
-    g: np.ndarray  # (N, n) its node parts
+    g: np.ndarray  # (N, nv) its node parts
     g_theta: np.ndarray  # (q,) its parameter part
-    H: np.ndarray  # (N, n, n) objective Hessian by node (PSD part)
-    factor: np.ndarray  # (N, n, n) H_k = factor_k factor_k^T
-    rank: np.ndarray  # (N, n) bool: the columns of factor_k that are not zero
+    H: np.ndarray  # (N, nv, nv) objective Hessian by node (PSD part)
+    factor: np.ndarray  # (N, nv, nv) H_k = factor_k factor_k^T
+    rank: np.ndarray  # (N, nv) bool: the columns of factor_k that are not zero
     H_theta: np.ndarray  # (q, q)
-    H_cross: np.ndarray  # (N, n, node width) objective Hessian node states x own parameters
+    H_cross: np.ndarray  # (N, nv, node width) objective Hessian node variables x parameters
+
+    @property
+    def state_E(self) -> np.ndarray:
+        """``(N-1, n, n)``: d c_k / d x_{k+1}."""
+        return self.E[:, :, : self.c.shape[1]]
 
 
 class _Chain:
@@ -156,20 +182,22 @@ class _Chain:
 
     def __init__(self, nlp: NLP, s: ChainStructure) -> None:
         N, n = s.node_index.shape
+        nodes = s.node_variables
+        nv = nodes.shape[1]
         q = s.parameter_index.size
-        self.N, self.n, self.q = N, n, q
+        self.N, self.n, self.m, self.nv, self.q = N, n, nv - n, nv, q
         self.num_variables = nlp.n
         node_of = np.full(nlp.n, -1, np.int64)
         local = np.full(nlp.n, -1, np.int64)
-        node_of[s.node_index.ravel()] = np.repeat(np.arange(N), n)
-        local[s.node_index.ravel()] = np.tile(np.arange(n), N)
+        node_of[nodes.ravel()] = np.repeat(np.arange(N), nv)
+        local[nodes.ravel()] = np.tile(np.arange(nv), N)
         theta_of = np.full(nlp.n, -1, np.int64)
         theta_of[s.parameter_index] = np.arange(q)
         covered = (node_of >= 0) | (theta_of >= 0)
         if not covered.all():
             raise ValueError(
-                f"structure: {int((~covered).sum())} free variables are neither node states nor "
-                "parameters (free inputs or interval variables are not supported)"
+                f"structure: {int((~covered).sum())} free variables are neither node states, "
+                "node inputs nor parameters (interval variables are not supported)"
             )
         interval_of = np.full(nlp.m, -1, np.int64)
         row_local = np.full(nlp.m, -1, np.int64)
@@ -194,8 +222,8 @@ class _Chain:
                 f"structure: defect row {int(rows[e])} of interval {int(k[e])} depends on "
                 f"variable {int(cols[e])} of node {int(node[e])}: not a one-step chain"
             )
-        self.d_flat = ((k * n + i) * n + j)[self.d_mask]
-        self.e_flat = ((k * n + i) * n + j)[self.e_mask]
+        self.d_flat = ((k * n + i) * nv + j)[self.d_mask]
+        self.e_flat = ((k * n + i) * nv + j)[self.e_mask]
         # each interval's parameter columns, padded with the dummy column q
         tk, tc = k[self.t_mask], theta_of[cols][self.t_mask]
         pairs = np.unique(tk * (q + 1) + tc)
@@ -210,11 +238,11 @@ class _Chain:
         self.t_flat = (tk * n + i[self.t_mask]) * self.width + slot
         hr, hc = nlp.hessianstructure()
         self.h_node = (node_of[hr] >= 0) & (node_of[hr] == node_of[hc])
-        self.h_flat = ((node_of[hr] * n + local[hr]) * n + local[hc])[self.h_node]
-        self.h_flat_t = ((node_of[hr] * n + local[hc]) * n + local[hr])[self.h_node]
+        self.h_flat = ((node_of[hr] * nv + local[hr]) * nv + local[hc])[self.h_node]
+        self.h_flat_t = ((node_of[hr] * nv + local[hc]) * nv + local[hr])[self.h_node]
         self.h_theta = (theta_of[hr] >= 0) & (theta_of[hc] >= 0)
         self.ht_r, self.ht_c = theta_of[hr][self.h_theta], theta_of[hc][self.h_theta]
-        # objective terms in a node's states and parameters (a tracked controller output):
+        # objective terms in a node's variables and parameters (a tracked controller output):
         # each node's parameter columns, padded with the dummy column q like the intervals'
         forward = (node_of[hr] >= 0) & (theta_of[hc] >= 0)
         backward = (theta_of[hr] >= 0) & (node_of[hc] >= 0)
@@ -230,72 +258,78 @@ class _Chain:
         self.node_columns = np.full((N, self.node_width), q, np.int64)
         self.node_columns[pk, rank] = pc
         slot = rank[np.searchsorted(pairs, kn * (q + 1) + xt)]
-        self.hx_flat = (kn * n + il) * self.node_width + slot
+        self.hx_flat = (kn * nv + il) * self.node_width + slot
         self.coupled = np.zeros(N, bool)
         self.coupled[pk] = True
         self.h_other = ~(self.h_node | self.h_theta | self.h_cross)
         self.node_index, self.parameter_index = s.node_index, s.parameter_index
+        self.nodes = nodes
 
     def state_defect_norm(self, b: _Blocks, c: np.ndarray) -> float:
         """``sum |E_k^{-1} c_k|`` with the ``E_k`` of linearization ``b``."""
         c_k = c[self.row_order].reshape(self.N - 1, self.n, 1)
-        return float(np.abs(np.linalg.solve(b.E, c_k)).sum())
+        return float(np.abs(np.linalg.solve(b.state_E, c_k)).sum())
 
     def blocks(self, nlp: NLP, z: np.ndarray) -> _Blocks:
-        N, n, q = self.N, self.n, self.q
+        N, n, nv, q = self.N, self.n, self.nv, self.q
         jac = nlp.jacobian(z)
-        D = np.bincount(self.d_flat, jac[self.d_mask], (N - 1) * n * n).reshape(N - 1, n, n)
-        E = np.bincount(self.e_flat, jac[self.e_mask], (N - 1) * n * n).reshape(N - 1, n, n)
+        size = (N - 1) * n * nv
+        D = np.bincount(self.d_flat, jac[self.d_mask], size).reshape(N - 1, n, nv)
+        E = np.bincount(self.e_flat, jac[self.e_mask], size).reshape(N - 1, n, nv)
         w = self.width
         T = np.bincount(self.t_flat, jac[self.t_mask], (N - 1) * n * w).reshape(N - 1, n, w)
         c = nlp.constraints(z)[self.row_order].reshape(N - 1, n)
-        propagated = -np.linalg.solve(E, np.concatenate([D, T, c[:, :, None]], axis=2))
+        propagated = -np.linalg.solve(
+            E[:, :, :n], np.concatenate([D, E[:, :, n:], T, c[:, :, None]], axis=2)
+        )
         grad = nlp.gradient(z)
         hess = nlp.gauss_newton_hessian(z)
         if np.any(hess[self.h_other] != 0.0):
             raise ValueError(
                 "objective: its Hessian couples different nodes; the Gauss-Newton solver "
-                "supports objectives that are sums of terms in one node's states and the "
+                "supports objectives that are sums of terms in one node's variables and the "
                 "parameters"
             )
         v = hess[self.h_node]
-        H = np.zeros(N * n * n)
+        H = np.zeros(N * nv * nv)
         np.add.at(H, self.h_flat, v)
         off = self.h_flat != self.h_flat_t
         np.add.at(H, self.h_flat_t[off], v[off])
-        H, factor, rank = _positive_part(H.reshape(N, n, n))
+        H, factor, rank = _positive_part(H.reshape(N, nv, nv))
         vt = hess[self.h_theta]
         H_theta = np.zeros((q, q))
         np.add.at(H_theta, (self.ht_r, self.ht_c), vt)
         off_t = self.ht_r != self.ht_c
         np.add.at(H_theta, (self.ht_c[off_t], self.ht_r[off_t]), vt[off_t])
         wn = self.node_width
-        H_cross = np.bincount(self.hx_flat, hess[self.h_cross], N * n * wn).reshape(N, n, wn)
+        H_cross = np.bincount(self.hx_flat, hess[self.h_cross], N * nv * wn).reshape(N, nv, wn)
+        m = self.m
         return _Blocks(
-            D,
-            E,
-            T,
-            c,
-            propagated[:, :, :n],
-            propagated[:, :, n : n + w],
-            propagated[:, :, -1],
-            grad,
-            grad[self.node_index],
-            grad[self.parameter_index],
-            H,
-            factor,
-            rank,
-            H_theta,
-            H_cross,
+            D=D,
+            E=E,
+            T=T,
+            c=c,
+            A=propagated[:, :, :nv],
+            Bu=propagated[:, :, nv : nv + m],
+            B=propagated[:, :, nv + m : nv + m + w],
+            a=propagated[:, :, -1],
+            gradient=grad,
+            g=grad[self.nodes],
+            g_theta=grad[self.parameter_index],
+            H=H,
+            factor=factor,
+            rank=rank,
+            H_theta=H_theta,
+            H_cross=H_cross,
         )
 
     def curvature(self, b: _Blocks, dz: np.ndarray) -> float:
         """``dz^T H dz`` of the model: node blocks, node-parameter blocks, parameter block."""
-        dx, dtheta = dz[self.node_index], dz[self.parameter_index]
+        dv, dtheta = dz[self.nodes], dz[self.parameter_index]
         padded = np.r_[dtheta, 0.0][self.node_columns]
         return (
-            float(np.einsum("ki,kij,kj->", dx, b.H, dx))
-            + 2.0 * float(np.einsum("ki,kij,kj->", dx, b.H_cross, padded))
+            float(np.einsum("ki,kij,kj->", dv, b.H, dv))
+            + 2.0 * float(np.einsum("ki,kij,kj->", dv, b.H_cross, padded))
             + float(dtheta @ b.H_theta @ dtheta)
         )
 
@@ -321,14 +355,18 @@ def _segments(N: int, length: int) -> list[tuple[int, int]]:
 
 
 class _Links:
-    """The linearized defects joining segment ``s`` to ``s + 1``:
-    ``C_s dy_s + E_s dy_{s+1} + G_s dtheta = r_s``."""
+    """The linearized defects joining segment ``s`` to ``s + 1`` after the segments' inputs
+    are eliminated: ``C_s dy_s + E_s dy_{s+1} + G_s dtheta + N_s nu_s + O_{s-1}^T nu_{s-1} +
+    O_s nu_{s+1} = r_s`` (``N``, ``O``: the eliminated inputs' share, zero without inputs)."""
 
-    def __init__(self, count: int, n: int, q: int) -> None:
+    def __init__(self, count: int, n: int, m: int, q: int) -> None:
         self.C = np.zeros((count, n, n))
         self.E = np.zeros((count, n, n))
         self.G = np.zeros((count, n, q + 1))
         self.r = np.zeros((count, n))
+        self.EU = np.zeros((count, n, m))  # d c / d u of the next segment's first node
+        self.N = np.zeros((count, n, n))
+        self.O = np.zeros((count, n, n))
 
 
 def _solve_bordered(
@@ -338,18 +376,20 @@ def _solve_bordered(
     g_loc: np.ndarray,
     g_theta: np.ndarray,
     links: _Links,
-) -> tuple[np.ndarray, np.ndarray]:
+    inputs: bool,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """The reduced KKT system, banded in the segments and bordered by the parameters.
 
     Unknowns ``[dy_0, nu_0, dy_1, nu_1, ..., dy_{S-1}]`` (segment first states and link
-    multipliers) form a banded matrix ``M`` (bandwidth ``2n - 1``); the parameters are
-    eliminated by their Schur complement ``H_theta - F^T M^{-1} F``, so the cost is
-    ``O(S n^2 q + q^3)`` instead of a dense solve of ``(2S - 1) n + q`` unknowns.
+    multipliers) form a banded matrix ``M`` (bandwidth ``2n - 1``, ``3n - 1`` when eliminated
+    inputs couple neighbouring links); the parameters are eliminated by their Schur
+    complement ``H_theta - F^T M^{-1} F``, so the cost is ``O(S n^2 q + q^3)`` instead of a
+    dense solve of ``(2S - 1) n + q`` unknowns. Returns ``dy``, ``dtheta`` and ``nu``.
     """
     S, n, _ = H_loc.shape
     q = H_theta.shape[0]
     size = (2 * S - 1) * n
-    bw = 2 * n - 1
+    bw = (3 if inputs else 2) * n - 1
     ab = np.zeros((2 * bw + 1, size))
     F = np.zeros((size, q))
     rhs = np.zeros(size)
@@ -372,6 +412,11 @@ def _solve_bordered(
             place(nu + n, nu, links.E[s].T)
             F[nu : nu + n] = links.G[s][:, :q]
             rhs[nu : nu + n] = links.r[s]
+            if inputs:
+                place(nu, nu, links.N[s])
+                if s < S - 2:
+                    place(nu, nu + 2 * n, links.O[s])
+                    place(nu + 2 * n, nu, links.O[s].T)
     with warnings.catch_warnings():
         # poorly determined parameters make these systems ill-conditioned; the damping
         # keeps them solvable and the line search judges the step
@@ -382,7 +427,8 @@ def _solve_bordered(
         dtheta = sla.solve(schur, -g_theta - F.T @ solved[:, q], assume_a="sym")
     local = solved[:, q] - solved[:, :q] @ dtheta
     dy = np.stack([local[2 * s * n : (2 * s + 1) * n] for s in range(S)])
-    return dy, dtheta
+    nu = np.array([local[(2 * s + 1) * n : (2 * s + 2) * n] for s in range(S - 1)])
+    return dy, dtheta, nu.reshape(S - 1, n)
 
 
 class _Reached:
@@ -403,6 +449,15 @@ class _Reached:
 
 
 @dataclass
+class _InputSolve:
+    """How a segment's inputs follow from the reduced unknowns:
+    ``du = -Z [dy_s; dtheta[params]; 1; nu_{s-1}; nu_s]``."""
+
+    Z: np.ndarray
+    params: np.ndarray
+
+
+@dataclass
 class _Reduced:
     """The condensed system before damping."""
 
@@ -412,6 +467,7 @@ class _Reduced:
     g_loc: np.ndarray  # (S, n)
     g_theta: np.ndarray  # (q,)
     links: _Links
+    inputs: list[_InputSolve]  # one per segment when the chain has free inputs
 
 
 class _Step:
@@ -420,120 +476,218 @@ class _Step:
     def __init__(self, chain: _Chain, segments: list[tuple[int, int]]) -> None:
         self.chain, self.segments = chain, segments
 
-    def condense(self, b: _Blocks, deadline: float) -> _Reduced:
-        """The reduced system of the segments' first states, links and parameters."""
+    def condense(self, b: _Blocks, deadline: float, damping: float) -> _Reduced:
+        """The reduced system of the segments' first states, links and parameters.
+
+        Each segment's free inputs are eliminated from its own dense block (their KKT rows,
+        with ``damping`` on their diagonal), which couples the segment's two links.
+        """
         ch = self.chain
-        n, q, S = ch.n, ch.q, len(self.segments)
+        n, m, nv, q, S = ch.n, ch.m, ch.nv, ch.q, len(self.segments)
         H_loc = np.zeros((S, n, n))
         H_cross = np.zeros((S, n, q + 1))
-        H_theta = b.H_theta.copy()
+        H_theta = np.zeros((q + 1, q + 1))
+        H_theta[:q, :q] = b.H_theta
         g_loc = np.zeros((S, n))
         g_theta = np.r_[b.g_theta, 0.0]
-        links = _Links(S - 1, n, q)
+        links = _Links(S - 1, n, m, q)
+        inputs: list[_InputSolve] = []
         for s, (first, last) in enumerate(self.segments):
-            # X = d x_k / d [y_s, theta] on the parameters the segment has reached only:
-            # column n + i holds parameter reached[i] (q, the padding column, included)
-            X = np.zeros((n, n + q + 1))
+            # columns of the segment's unknowns: its first state, its inputs node by node,
+            # then the parameters it has reached (column base + i holds reached[i]; q, the
+            # padding column, included)
+            base = n + (last - first + 1) * m
+            X = np.zeros((n, base + q + 1))
             X[:, :n] = np.eye(n)
+            V = np.zeros((nv, base + q + 1))  # d v_k / d unknowns
             columns = _Reached(q)
             d = np.zeros(n)
             rows: list[np.ndarray] = []
-            grad = np.zeros(n + q + 1)
-            # node-parameter curvature dx_k^T Hc_k dtheta_k: rows as X's columns, columns
-            # by parameter
+            grad = np.zeros(base + q + 1)
+            # node-parameter curvature: rows as X's columns, columns by parameter
             coupled = bool(ch.coupled[first : last + 1].any())
-            cross = np.zeros((n + q + 1, q + 1) if coupled else (0, 0))
+            cross = np.zeros((base + q + 1, q + 1) if coupled else (0, 0))
             for k in range(first, last + 1):
-                m = n + columns.count
+                w = base + columns.count
+                V[:n, :w] = X[:, :w]
+                u = n + (k - first) * m
+                if m:
+                    V[n:, u - m : u] = 0.0
+                    V[n:, u : u + m] = np.eye(m)
+                dv = np.r_[d, np.zeros(m)]
                 if b.rank[k].any():
-                    rows.append(b.factor[k][:, b.rank[k]].T @ X[:, :m])
-                    grad[:m] += X[:, :m].T @ (b.g[k] + b.H[k] @ d)
+                    rows.append(b.factor[k][:, b.rank[k]].T @ V[:, :w])
+                    grad[:w] += V[:, :w].T @ (b.g[k] + b.H[k] @ dv)
                 if ch.coupled[k]:
                     cols_k = ch.node_columns[k]
-                    cross[:m, cols_k] += X[:, :m].T @ b.H_cross[k]
-                    grad[n + columns.reach(cols_k)] += b.H_cross[k].T @ d
+                    cross[:w, cols_k] += V[:, :w].T @ b.H_cross[k]
+                    grad[base + columns.reach(cols_k)] += b.H_cross[k].T @ dv
                 if k < last:
-                    cols = ch.columns[k]
-                    at = n + columns.reach(cols)
-                    m = n + columns.count
-                    X[:, :m] = b.A[k] @ X[:, :m]
+                    at = base + columns.reach(ch.columns[k])
+                    w = base + columns.count
+                    X[:, :w] = b.A[k] @ V[:, :w]
+                    X[:, u + m : u + 2 * m] += b.Bu[k]
                     X[:, at] += b.B[k]
-                    d = b.A[k] @ d + b.a[k]
+                    d = b.A[k][:, :n] @ d + b.a[k]
             if time.perf_counter() > deadline:
                 raise _WallTime
-            m = n + columns.count
+            w = base + columns.count
             real = np.flatnonzero(columns.order[: columns.count] < q)
             params = columns.order[real]
-            local = np.r_[np.arange(n), n + real]
+            local = np.r_[np.arange(base), base + real]
+            Q = np.zeros((local.size, local.size))
             if rows:
-                R = np.zeros((sum(r.shape[0] for r in rows), m))
+                R = np.zeros((sum(r.shape[0] for r in rows), w))
                 i = 0
                 for r in rows:
                     R[i : i + r.shape[0], : r.shape[1]] = r
                     i += r.shape[0]
-                G = sla.blas.dsyrk(1.0, R[:, local], trans=1)
-                G = np.triu(G) + np.triu(G, 1).T
-                H_loc[s] += G[:n, :n]
-                H_cross[s][:, params] += G[:n, n:]
-                H_theta[np.ix_(params, params)] += G[n:, n:]
+                Q = sla.blas.dsyrk(1.0, R[:, local], trans=1)
+                Q = np.triu(Q) + np.triu(Q, 1).T
             if coupled:
-                # W + W^T with W = cross (rows: the segment's first state and parameters)
-                H_cross[s][:, :q] += cross[:n, :q]
-                W = cross[n + real, :q]
-                H_theta[params, :] += W
-                H_theta[:, params] += W.T
-            g_loc[s] += grad[:n]
-            g_theta[params] += grad[n + real]
+                W = cross[local][:, params]
+                Q[:, base:] += W
+                Q[base:, :] += W.T
+            gq = grad[local]
+            link_row = None
             if last < ch.N - 1:
-                k = last
-                links.C[s] = b.D[k] @ X[:, :n]
-                links.G[s][:, columns.order[: columns.count]] = b.D[k] @ X[:, n:m]
-                links.G[s][:, ch.columns[k]] += b.T[k]
-                links.E[s] = b.E[k]
-                links.r[s] = -b.c[k] - b.D[k] @ d
-        return _Reduced(H_loc, H_cross[:, :, :q], H_theta, g_loc, g_theta[:q], links)
+                # the defects of the interval after the segment, in its unknowns
+                link_row = b.D[last] @ V[:, :w]
+                links.C[s] = link_row[:, :n]
+                links.G[s][:, columns.order[: columns.count]] = link_row[:, base:w]
+                links.G[s][:, ch.columns[last]] += b.T[last]
+                links.E[s] = b.state_E[last]
+                links.EU[s] = b.E[last][:, n:]
+                links.r[s] = -b.c[last] - b.D[last][:, :n] @ d
+            if m:
+                Q, gq = self._eliminate_inputs(
+                    s, Q, gq, base, params, link_row, links, inputs, damping
+                )
+            H_loc[s] += Q[:n, :n]
+            H_cross[s][:, params] += Q[:n, n:]
+            H_theta[np.ix_(params, params)] += Q[n:, n:]
+            g_loc[s] += gq[:n]
+            g_theta[params] += gq[n:]
+        return _Reduced(
+            H_loc, H_cross[:, :, :q], H_theta[:q, :q], g_loc, g_theta[:q], links, inputs
+        )
+
+    def _eliminate_inputs(
+        self,
+        s: int,
+        Q: np.ndarray,
+        gq: np.ndarray,
+        base: int,
+        params: np.ndarray,
+        link_row: np.ndarray | None,
+        links: _Links,
+        inputs: list[_InputSolve],
+        damping: float,
+    ) -> tuple[np.ndarray, np.ndarray]:
+        """Segment ``s``'s Hessian and gradient in its first state and parameters, its inputs
+        eliminated by their own KKT rows (``G_UU du + G_Uw dw + g_U + J^T nu = 0``, ``J`` the
+        inputs' columns of the links before and after the segment); the links take the
+        inputs' share and ``inputs`` how to recover them."""
+        n, m = self.chain.n, self.chain.m
+        U = np.arange(n, base)
+        keep = np.r_[np.arange(n), np.arange(base, Q.shape[0])]
+        nk = keep.size
+        G_UU = Q[np.ix_(U, U)]
+        diag = np.diag(G_UU).copy()
+        idx = np.arange(U.size)
+        # an input without a prior of its own (a free trajectory) is held by the damping
+        floor = 1e-8 * max(float(diag.max(initial=0.0)), 1.0)
+        factor = None
+        while factor is None:
+            try:
+                damped = G_UU.copy()
+                damped[idx, idx] += max(damping, 1e-12) * np.maximum(diag, floor)
+                factor = sla.cho_factor(damped, check_finite=False)
+            except np.linalg.LinAlgError:
+                damping = 10.0 * max(damping, 1e-12)
+        prev = np.zeros((n, U.size))
+        if s > 0:
+            prev[:, :m] = links.EU[s - 1]
+        after = np.zeros((n, U.size)) if link_row is None else link_row[:, U]
+        rhs = np.column_stack([Q[np.ix_(U, keep)], gq[U], prev.T, after.T])
+        Z = sla.cho_solve(factor, rhs, check_finite=False)
+        coupling = Q[np.ix_(keep, U)]
+        reduced = Q[np.ix_(keep, keep)] - coupling @ Z[:, :nk]
+        gradient = gq[keep] - coupling @ Z[:, nk]
+        into_nu = slice(nk + 1, nk + 1 + n), slice(nk + 1 + n, nk + 1 + 2 * n)
+        if s > 0:
+            JZ = prev @ Z
+            links.E[s - 1] -= JZ[:, :n]
+            links.G[s - 1][:, params] -= JZ[:, n:nk]
+            links.r[s - 1] += JZ[:, nk]
+            links.N[s - 1] -= JZ[:, into_nu[0]]
+            if link_row is not None:
+                links.O[s - 1] -= JZ[:, into_nu[1]]
+        if link_row is not None:
+            JZ = after @ Z
+            links.C[s] -= JZ[:, :n]
+            links.G[s][:, params] -= JZ[:, n:nk]
+            links.r[s] += JZ[:, nk]
+            links.N[s] -= JZ[:, into_nu[1]]
+        inputs.append(_InputSolve(Z, params))
+        return 0.5 * (reduced + reduced.T), gradient
 
     def solve(self, b: _Blocks, r: _Reduced, damping: float) -> np.ndarray:
         """The full step ``dz`` with ``damping`` on the reduced Hessian's diagonal (the
         condensed system is kept, so raising the damping costs one banded solve)."""
-        n, q = self.chain.n, self.chain.q
+        ch = self.chain
+        n, q = ch.n, ch.q
         H_loc, H_theta = r.H_loc.copy(), r.H_theta.copy()
         diagonals = np.r_[np.einsum("sii->si", H_loc).ravel(), np.diag(H_theta)]
         floor = 1e-8 * max(float(diagonals.max(initial=0.0)), 1.0)
         idx = np.arange(n)
         H_loc[:, idx, idx] += damping * np.maximum(H_loc[:, idx, idx], floor)
         H_theta[np.diag_indices(q)] += damping * np.maximum(np.diag(H_theta), floor)
-        dy, dtheta = _solve_bordered(H_loc, r.H_cross, H_theta, r.g_loc, r.g_theta, r.links)
-        return self.expand(b, np.r_[dy.ravel(), dtheta])
+        dy, dtheta, nu = _solve_bordered(
+            H_loc, r.H_cross, H_theta, r.g_loc, r.g_theta, r.links, ch.m > 0
+        )
+        du = np.zeros((ch.N, ch.m))
+        if ch.m:
+            nu = np.concatenate([np.zeros((1, n)), nu, np.zeros((1, n))])
+            for s, (first, last) in enumerate(self.segments):
+                e = r.inputs[s]
+                vector = np.r_[dy[s], dtheta[e.params], 1.0, nu[s], nu[s + 1]]
+                du[first : last + 1] = -(e.Z @ vector).reshape(last - first + 1, ch.m)
+        return self.expand(b, dy, dtheta, du)
 
-    def expand(self, b: _Blocks, dp: np.ndarray) -> np.ndarray:
+    def expand(self, b: _Blocks, dy: np.ndarray, dtheta: np.ndarray, du: np.ndarray) -> np.ndarray:
         """The full step: states propagated through every segment from its first state."""
         ch = self.chain
-        n, S = ch.n, len(self.segments)
-        dtheta = np.r_[dp[S * n :], 0.0]
-        forcing = np.einsum("kij,kj->ki", b.B, dtheta[ch.columns]) + b.a
+        n = ch.n
+        padded = np.r_[dtheta, 0.0]
+        forcing = np.einsum("kij,kj->ki", b.B, padded[ch.columns]) + b.a
+        if ch.m:
+            forcing += np.einsum("kij,kj->ki", b.A[:, :, n:], du[:-1])
+            forcing += np.einsum("kij,kj->ki", b.Bu, du[1:])
+        A = b.A[:, :, :n]
         dx = np.zeros((ch.N, n))
         for s, (first, last) in enumerate(self.segments):
-            dx[first] = dp[s * n : (s + 1) * n]
+            dx[first] = dy[s]
             for k in range(first, last):
-                dx[k + 1] = b.A[k] @ dx[k] + forcing[k]
+                dx[k + 1] = A[k] @ dx[k] + forcing[k]
         full = np.zeros(ch.num_variables)
-        full[ch.node_index.ravel()] = dx.ravel()
-        full[ch.parameter_index] = dtheta[:-1]
+        full[ch.nodes] = np.concatenate([dx, du], axis=1)
+        full[ch.parameter_index] = dtheta
         return full
 
 
 def _adjoint(b: _Blocks, gradient: np.ndarray) -> np.ndarray:
-    """Defect multipliers ``(N-1, n)`` making every node but the first stationary.
+    """Defect multipliers ``(N-1, n)`` making every node's states but the first stationary.
 
-    Solves ``gradient_k + D_k^T lambda_k + E_{k-1}^T lambda_{k-1} = 0`` backwards from the
-    last node (which no later defect touches).
+    Solves ``gradient_k + D_k^T lambda_k + E_{k-1}^T lambda_{k-1} = 0`` (state columns)
+    backwards from the last node (which no later defect touches).
     """
     N1, n = b.c.shape
+    D, E = b.D[:, :, :n], b.state_E
     lam = np.zeros((N1, n))
-    lam[N1 - 1] = -np.linalg.solve(b.E[N1 - 1].T, gradient[N1])
+    lam[N1 - 1] = -np.linalg.solve(E[N1 - 1].T, gradient[N1, :n])
     for k in range(N1 - 1, 0, -1):
-        lam[k - 1] = -np.linalg.solve(b.E[k - 1].T, gradient[k] + b.D[k].T @ lam[k])
+        lam[k - 1] = -np.linalg.solve(E[k - 1].T, gradient[k, :n] + D[k].T @ lam[k])
     return lam
 
 
@@ -619,7 +773,7 @@ def solve_gauss_newton(
             # The node-parameter and parameter blocks are the objective's exact Hessian, which
             # a tracked controller output makes indefinite far from the data; more damping
             # until the step has positive curvature (a Levenberg-Marquardt safeguard).
-            reduced = stepper.condense(blocks, deadline)
+            reduced = stepper.condense(blocks, deadline, damping)
             for _ in range(MAX_DAMPING_RAISES):
                 dz = stepper.solve(blocks, reduced, damping)
                 curvature = chain.curvature(blocks, dz)
