@@ -2,7 +2,8 @@
 the recovery of a synthetic trial's controller, one case per fresh process.
 
     python benchmarks/gait_identify.py --trial DIR [--trial DIR2 ...] \
-        [--phase controller heel-strikes] [--max-iter 30] [--duration 90] [--repeat 3]
+        [--phase controller heel-strikes] [--max-iter 30] [--duration 90] [--repeat 3] \
+        [--process-noise 2,5]
 
 Each case (trial x phase x repeat) runs ``identify_gait`` in its own process, so the peak RSS
 is the case's own, and appends one JSON record to ``benchmarks/results/gait_identify.json``:
@@ -27,7 +28,12 @@ RESULTS = Path(__file__).parent / "results" / "gait_identify.json"
 
 
 def one_case(
-    trial: Path, phase: str, max_iter: int, duration: float | None, fit_fraction: float
+    trial: Path,
+    phase: str,
+    max_iter: int,
+    duration: float | None,
+    fit_fraction: float,
+    process_noise: str | None = None,
 ) -> dict:
     """Run one identification here and return its summary (no store, no figures)."""
     from colloc.identify.gait import identify_gait
@@ -40,11 +46,20 @@ def one_case(
         max_iter=max_iter,
         duration=duration,
         fit_fraction=fit_fraction,
+        process_noise=_pair(process_noise),
     )
     run = identify_gait(settings)
     summary = gait_summary(run, gait_run_id(run))
     summary["trial"] = str(trial)
     return summary
+
+
+def _pair(text: str | None) -> tuple[float, float] | None:
+    """``JOINT[,TRUNK]`` as the settings' pair."""
+    if text is None:
+        return None
+    values = [float(v) for v in text.split(",")]
+    return (values[0], values[-1])
 
 
 def main() -> None:
@@ -55,12 +70,18 @@ def main() -> None:
     parser.add_argument("--duration", type=float, default=None, help="fit window [s]")
     parser.add_argument("--fit-fraction", type=float, default=0.75)
     parser.add_argument("--repeat", type=int, default=1)
+    parser.add_argument("--process-noise", default=None, metavar="JOINT[,TRUNK]")
     parser.add_argument("--out", type=Path, default=RESULTS)
     parser.add_argument("--child", action="store_true", help=argparse.SUPPRESS)
     args = parser.parse_args()
     if args.child:
         summary = one_case(
-            args.trial[0], args.phase[0], args.max_iter, args.duration, args.fit_fraction
+            args.trial[0],
+            args.phase[0],
+            args.max_iter,
+            args.duration,
+            args.fit_fraction,
+            args.process_noise,
         )
         print(json.dumps(summary))
         return
@@ -74,6 +95,8 @@ def main() -> None:
                 ]  # fmt: skip
                 if args.duration is not None:
                     command += ["--duration", str(args.duration)]
+                if args.process_noise is not None:
+                    command += ["--process-noise", args.process_noise]
                 done = subprocess.run(command, capture_output=True, text=True, check=False)
                 if done.returncode != 0:
                     record = {"trial": str(trial), "phase": phase, "error": done.stderr[-2000:]}

@@ -37,6 +37,16 @@ def _number(text: str) -> float:
         raise argparse.ArgumentTypeError(f"expected a number, found {text!r}") from None
 
 
+def _process_noise(text: str) -> tuple[float, float]:
+    """``JOINT[,TRUNK]`` standard deviations (the trunk's defaults to the joints')."""
+    parts = [_number(v) for v in text.split(",")]
+    if len(parts) not in (1, 2) or not all(v > 0 for v in parts):
+        raise argparse.ArgumentTypeError(
+            f"expected JOINT[,TRUNK] standard deviations > 0, found {text!r}"
+        )
+    return (parts[0], parts[-1])
+
+
 def _report_problems(command: str, problems: list[str]) -> bool:
     """Print every settings problem to stderr; True when there was any."""
     for line in problems:
@@ -111,6 +121,15 @@ def _identify_parser(gs: Any, default_url: str) -> None:
     )
     idp.add_argument("--segment-nodes", type=_positive_int, default=d.segment_nodes)
     idp.add_argument("--max-iter", type=int, default=d.max_iter)
+    idp.add_argument(
+        "--process-noise",
+        type=_process_noise,
+        default=None,
+        metavar="JOINT[,TRUNK]",
+        help="estimate motor noise on each joint torque (std, N m) and residual forces on the "
+        "trunk (std, N; default: JOINT) as disturbances: the maximum a posteriori fit, "
+        "standard errors by the sandwich over strides (default: exact dynamics)",
+    )
     idp.add_argument(
         "--no-simulate",
         action="store_true",
@@ -457,6 +476,7 @@ def _gait_identify(args: argparse.Namespace) -> int:
         max_iter=args.max_iter,
         simulate_validation=not args.no_simulate,
         seed=args.seed,
+        process_noise=args.process_noise,
     )
     if _report_problems("colloc gait identify", settings.problems()):
         return 2

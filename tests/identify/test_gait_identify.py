@@ -120,3 +120,37 @@ def test_metadata_that_disagrees_with_the_columns(tmp_path):
 def test_simulation_without_a_cycle_needs_the_reference_given():
     with pytest.raises(ValueError, match="stride_duration"):
         simulate_walking(None, np.zeros((2, 6)), np.zeros((2, 6, 12)), 1.0, None)
+
+
+def test_process_noise_fit_estimates_disturbances_and_reports_sandwich_errors(tmp_path):
+    """``--process-noise``: motor noise on the six torques and residual forces on the trunk
+    become free trajectories of the fit (the solver's numbers are checked against IPOPT in
+    tests/nlp/test_gauss_newton.py); the standard errors come from the sandwich over the
+    window's strides, and the settings are recorded."""
+    out = tmp_path / "s.json"
+    args = ["--phase", "controller", "--fit-fraction", "0.6", "--max-iter", "1"]
+    code = main(
+        ["gait", "identify", str(FIXTURE), *args, "--no-plots", "--no-store", "--no-simulate"]
+        + ["--process-noise", "1,2", "--json", str(out)]
+    )
+    summary = json.loads(out.read_text())
+    assert summary["settings"]["process_noise"] == [1.0, 2.0]
+    assert summary["iterations"] == 1 and code == 1
+    # 9 disturbances at every node beside the 18 states
+    N = summary["problem"]["nodes"]
+    assert summary["problem"]["variables"] == N * (18 + 9) + summary["problem"]["parameters"]
+    data = _read(GaitIdentifySettings(trial=FIXTURE, phase="controller", fit_fraction=0.6))
+    t = data.fit.time[data.rows]
+    strikes = data.trial.right_heel_strikes
+    blocks = 1 + np.count_nonzero((strikes > t[0] + 1e-9) & (strikes < t[-1]))
+    assert f"standard errors: sandwich over {blocks} strides" in summary["notes"]
+    assert summary["fraction_within_3se"] is not None
+
+
+@pytest.mark.parametrize("value", ["0", "1,-2", "a", "1,2,3"])
+def test_bad_process_noise_is_refused_by_name(value, capsys):
+    code = None
+    with pytest.raises(SystemExit) as stop:
+        code = main(["gait", "identify", str(FIXTURE), "--process-noise", value])
+    assert code is None and stop.value.code == 2
+    assert "--process-noise" in capsys.readouterr().err

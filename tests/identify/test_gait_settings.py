@@ -31,12 +31,13 @@ def test_every_bad_field_is_named(tmp_path):
         max_iter=-1,
         smoothing_window=0.0,
         seed=-3,
+        process_noise=(1.0, 0.0),
     )
     found = settings.problems()
     for name in (
         "trial", "fit_fraction", "points", "feedback", "structure", "scheme", "phase",
         "guess", "track", "start", "duration", "segment_nodes", "max_iter",
-        "smoothing_window", "seed",
+        "smoothing_window", "seed", "process_noise",
     ):  # fmt: skip
         assert any(line.startswith(f"{name}:") for line in found), name
     with pytest.raises(ValueError, match="fit_fraction"):
@@ -46,3 +47,12 @@ def test_every_bad_field_is_named(tmp_path):
 def test_track_needs_a_kinematic_signal(tmp_path):
     found = GaitIdentifySettings(trial=Path(tmp_path), track=("torques",)).problems()
     assert found and "angles" in found[0]
+
+
+def test_process_noise_is_recorded_as_a_list_and_checked(tmp_path):
+    assert "process_noise" in GaitIdentifySettings(trial=tmp_path).to_dict()
+    plain = GaitIdentifySettings(trial=tmp_path, process_noise=(2.0, 5.0)).to_dict()
+    assert plain["process_noise"] == [2.0, 5.0]
+    for bad in ((1.0,), [1.0, 2.0], (1.0, float("nan")), (True, 1.0)):
+        found = GaitIdentifySettings(trial=tmp_path, process_noise=bad).problems()  # type: ignore[arg-type]
+        assert found and found[0].startswith("process_noise:"), bad

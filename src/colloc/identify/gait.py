@@ -12,10 +12,13 @@ each timed and reported through ``progress``:
    measured feedback per torque (:func:`colloc.identify.direct.fit_gain_schedule`), rates by
    Savitzky-Golay differentiation of the positions: the solver's start and the baseline;
 3. ``build`` and ``solve``: the collocation problem, solved by constrained Gauss-Newton with
-   condensing (:meth:`colloc.Problem.solve_gauss_newton`);
+   condensing (:meth:`colloc.Problem.solve_gauss_newton`); with ``process_noise``, motor
+   noise on each joint torque and residual forces on the trunk are disturbance trajectories
+   penalised by their variance (the maximum a posteriori fit, ``docs/process-noise.md``);
 4. ``uncertainty``: standard errors of every ``T*`` and ``K`` entry from the Fisher
    information at the estimate with the known noise levels (:func:`colloc.cramer_rao_bound`
-   evaluated at the solution);
+   evaluated at the solution), or with ``process_noise`` the sandwich over strides
+   (:func:`colloc.parameter_uncertainty`);
 5. ``validate``: on the held-out part, each controller's torques on the measured feedback
    against the measured torques (VAF per joint), and a forward simulation of gait2d under
    the identified controller from the measured state at the part's start, on its belt record
@@ -231,8 +234,17 @@ def identify_gait(
     Tstar, K = gs.arrays({p: solution.parameters[p] for p in gs.parameters})
     lap("solve")
 
-    say("uncertainty", "Fisher information at the estimate, known noise levels")
-    Tstar_se, K_se = _standard_errors(problem, solution, gs, weights_n, notes)
+    # the sandwich's blocks: one per stride (the first from the window's start)
+    strikes = data.trial.right_heel_strikes
+    inside = np.searchsorted(t, strikes[(strikes > t[0]) & (strikes < t[-1])])
+    strides = np.r_[0, inside[inside > 0]]
+    if settings.process_noise is None:
+        say("uncertainty", "Fisher information at the estimate, known noise levels")
+    else:
+        say("uncertainty", f"sandwich over {strides.size} strides")
+    Tstar_se, K_se = _standard_errors(
+        problem, solution, gs, weights_n, notes, strides if settings.process_noise else None
+    )
     collocation = ControllerEstimate(Tstar, K, Tstar_se, K_se)
     lap("uncertainty")
 
@@ -477,6 +489,9 @@ def _problem(
     meta: dict[str, Any],
 ) -> tuple[Any, float]:
     """The collocation problem; its tracking weights are ``1 / (sigma^2 N)``."""
+    from sympy.physics.mechanics import dynamicsymbols
+
+    from colloc.model.symbols import name_of
     from colloc.nlp.objective import Tracking
     from colloc.nlp.problem import Problem
     from colloc.transcription import BackwardEuler, Midpoint
@@ -489,7 +504,22 @@ def _problem(
     N = t.size
     measured = {y: signals[c].to_numpy(dtype=float) for y, c in zip(tracked, columns, strict=True)}
     weights = {y: 1.0 / _noise_std(meta, c) ** 2 / N for y, c in zip(tracked, columns, strict=True)}
-    closed = model.with_outputs(tracked).close_loop(gs)
+    plant = model.with_outputs(tracked)
+    process_noise = None
+    if settings.process_noise is not None:
+        # motor noise on each joint torque (before the loop is closed: T = law + w) and a
+        # residual force on each trunk coordinate's dynamic row; the priors are weighted
+        # like the tracking, 1 / (sigma^2 N)
+        joint, trunk = settings.process_noise
+        motor = {T: dynamicsymbols(f"motor_noise_{name_of(T)}") for T in gait.torques}
+        rows = {
+            model.num_states // 2 + i: dynamicsymbols(f"residual_{name_of(q)}")
+            for i, q in enumerate(model.states[:3])
+        }
+        plant = plant.with_disturbances({**motor, **rows})
+        process_noise = {w: joint * np.sqrt(N) for w in motor.values()}
+        process_noise.update({w: trunk * np.sqrt(N) for w in rows.values()})
+    closed = plant.close_loop(gs)
     scheme = {"midpoint": Midpoint, "backward-euler": BackwardEuler}[settings.scheme]()
     problem = Problem(
         closed,
@@ -501,6 +531,7 @@ def _problem(
         },
         known_parameters=dict(dyn.constants),
         objective=Tracking(measured, weights),
+        process_noise=process_noise,
     )
     return problem, 1.0 / N
 
@@ -509,13 +540,26 @@ def _problem(
 
 
 def _standard_errors(
-    problem: Any, solution: Any, gs: GainScheduled, noise_variance: float, notes: list[str]
+    problem: Any,
+    solution: Any,
+    gs: GainScheduled,
+    noise_variance: float,
+    notes: list[str],
+    strides: np.ndarray | None = None,
 ) -> tuple[np.ndarray | None, np.ndarray | None]:
-    """Standard errors of ``T*`` and ``K`` (zero outside the structure), or None."""
-    from colloc.nlp.uncertainty import cramer_rao_bound
+    """Standard errors of ``T*`` and ``K`` (zero outside the structure), or None: the
+    Fisher information at the estimate with the known noise, or with ``strides`` (first
+    nodes) the sandwich over them (the process-noise fit)."""
+    from colloc.nlp.uncertainty import cramer_rao_bound, parameter_uncertainty
 
     try:
-        bound = cramer_rao_bound(problem, solution.z, noise_variance)
+        if strides is None:
+            bound = cramer_rao_bound(problem, solution.z, noise_variance)
+        else:
+            bound = parameter_uncertainty(
+                problem, solution, method="sandwich", blocks=[int(b) for b in strides]
+            )
+            notes.append(f"standard errors: sandwich over {len(strides)} strides")
     except ValueError as exc:
         notes.append(f"no standard errors: {exc}")
         return None, None

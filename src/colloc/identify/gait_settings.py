@@ -74,6 +74,11 @@ class GaitIdentifySettings:
         Walk the identified controller through the held-out part (forward simulation).
     seed : int
         Seeds any random draw (none in the default settings; recorded with the run).
+    process_noise : tuple of float or None
+        ``(joint, trunk)``: standard deviations of the motor noise on each joint torque [N m]
+        and of a residual force on each trunk coordinate [N, N, N m] per sample, estimated as
+        disturbance trajectories (the maximum a posteriori fit; standard errors by the
+        sandwich over strides). None: the dynamics hold exactly.
     """
 
     trial: Path
@@ -92,6 +97,7 @@ class GaitIdentifySettings:
     smoothing_window: float = 0.05
     simulate_validation: bool = True
     seed: int = 0
+    process_noise: tuple[float, float] | None = None
 
     def problems(self) -> list[str]:
         """Every problem with the settings (empty when valid); the trial is not read."""
@@ -141,6 +147,16 @@ class GaitIdentifySettings:
             out.append(f"smoothing_window: expected seconds > 0, found {self.smoothing_window!r}")
         if not (_integer(self.seed) and self.seed >= 0):
             out.append(f"seed: expected an integer >= 0, found {self.seed!r}")
+        noise = self.process_noise
+        if noise is not None and not (
+            isinstance(noise, tuple)
+            and len(noise) == 2
+            and all(_number(v) and 0 < v < float("inf") for v in noise)
+        ):
+            out.append(
+                "process_noise: expected None or (joint, trunk) standard deviations > 0, "
+                f"found {noise!r}"
+            )
         return out
 
     def validate(self) -> None:
@@ -154,6 +170,8 @@ class GaitIdentifySettings:
         out = asdict(self)
         out["trial"] = str(self.trial)
         out["track"] = list(self.track)
+        if self.process_noise is not None:
+            out["process_noise"] = list(self.process_noise)
         return out
 
 
