@@ -65,7 +65,7 @@ def spring(**kwargs):
         (
             [q.diff(t) - u, u.diff(t) + w],
             [q, u],
-            {},
+            {"infer_inputs": False},
             r"unknown functions of time in the residual \(declare each as a state or an input\): "
             r"\['w'\]",
         ),
@@ -159,6 +159,7 @@ def test_every_problem_is_reported_at_once():
             [q, u],
             parameters=[k],
             outputs={r: 1.5},
+            infer_inputs=False,
         )
     text = str(info.value)
     assert "unknown functions of time in the residual" in text and "['w']" in text

@@ -8,6 +8,7 @@ parameters ``p`` and measured outputs ``y = g(x, r, t)``. Mechanical systems sta
 
 from __future__ import annotations
 
+import warnings
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field, replace
 from typing import TYPE_CHECKING, Any, Protocol, TypeAlias
@@ -16,7 +17,15 @@ import sympy as sm
 
 from colloc.model.errors import raise_if_any
 from colloc.model.schedule import ParameterSchedule
-from colloc.model.symbols import TIME, as_tuple, is_function_of_time, name_of, sort_by_name
+from colloc.model.symbols import (
+    TIME,
+    as_tuple,
+    derivatives_in,
+    functions_of_time,
+    is_function_of_time,
+    name_of,
+    sort_by_name,
+)
 from colloc.model.validation import output_problems, validate_model
 
 if TYPE_CHECKING:
@@ -120,6 +129,8 @@ class Model:
         outputs: Mapping[sm.Basic, sm.Expr] | Sequence[sm.Basic] | None = None,
         parameters: Inputs = None,
         t: sm.Symbol = TIME,
+        input_derivatives: Mapping[sm.Basic, sm.Basic] | None = None,
+        infer_inputs: bool = True,
     ) -> Model:
         """Build a model from a plain SymPy residual ``F(x', x, r, p, t) = 0``.
 
@@ -140,7 +151,17 @@ class Model:
             The constants. If given, any other constant in the residual is reported as
             unknown; if omitted, every free symbol other than ``t`` is a parameter.
         t : sympy.Symbol
-            The time symbol.
+            The time symbol (``dynamicsymbols._t`` unless the model was built with another).
+        input_derivatives : mapping, optional
+            Input ``v(t)`` -> a new function of time ``a(t)`` standing for ``v'(t)``: an
+            input that enters the equations through its derivative, such as a platform's
+            acceleration ``a`` in a plant written in the platform speed ``v``. Each ``v'`` in
+            the residual is replaced by ``a``, and ``a`` joins the known inputs unless it is
+            declared elsewhere (give its trajectory to :class:`colloc.Problem`).
+        infer_inputs : bool
+            Functions of time in the residual that are declared nowhere (and not
+            differentiated) become known inputs, with a :class:`UserWarning` naming them;
+            ``False`` makes them an error.
 
         Returns
         -------
@@ -153,6 +174,16 @@ class Model:
         """
         res = sm.Matrix(residual) if not isinstance(residual, sm.MatrixBase) else residual
         res = sm.Matrix(res).reshape(len(res), 1) if res.shape[1] != 1 else sm.Matrix(res)
+        if input_derivatives:
+            derivative_problems = _input_derivative_problems(input_derivatives, t)
+            raise_if_any(derivative_problems)
+            res = res.subs({v.diff(t): a for v, a in input_derivatives.items()})
+            declared = {*as_tuple(controlled_inputs), *as_tuple(unknown_inputs)}
+            known_inputs = as_tuple(known_inputs) + tuple(
+                a
+                for a in input_derivatives.values()
+                if a not in declared and a not in as_tuple(known_inputs)
+            )
         xs = as_tuple(states)
         if outputs is None:
             out: dict[sm.Basic, sm.Expr] = {x: x for x in xs}
@@ -164,6 +195,17 @@ class Model:
             as_tuple(v) for v in (controlled_inputs, known_inputs, unknown_inputs)
         )
         given_params = None if parameters is None else as_tuple(parameters)
+        if infer_inputs:
+            inferred = _undeclared_inputs(res, (*xs, *ctrl, *known, *unknown), t)
+            if inferred:
+                warnings.warn(
+                    f"functions of time {[name_of(f) for f in inferred]} appear in the "
+                    "residual but are declared nowhere: taken as known inputs (declare them "
+                    "to silence this, or pass infer_inputs=False to make it an error)",
+                    UserWarning,
+                    stacklevel=2,
+                )
+                known = known + inferred
         problems, found_params = validate_model(res, xs, ctrl, known, unknown, out, given_params, t)
         raise_if_any(problems)
         params = sort_by_name(given_params if given_params is not None else found_params)
@@ -179,6 +221,8 @@ class Model:
         unknown_inputs: Inputs = None,
         outputs: Mapping[sm.Basic, sm.Expr] | Sequence[sm.Basic] | None = None,
         parameters: Inputs = None,
+        t: sm.Symbol = TIME,
+        input_derivatives: Mapping[sm.Basic, sm.Basic] | None = None,
     ) -> Model:
         """Build a model from a :class:`sympy.physics.mechanics.KanesMethod`.
 
@@ -191,8 +235,12 @@ class Model:
         ----------
         kane : KanesMethod
             With ``kanes_equations`` already called.
-        controlled_inputs, known_inputs, unknown_inputs, outputs, parameters
+        controlled_inputs, known_inputs, unknown_inputs, outputs, parameters, t
             As in :meth:`from_equations`.
+        input_derivatives : mapping, optional
+            As in :meth:`from_equations`: e.g. ``{v: a}`` when the platform speed ``v(t)``
+            is a known input and its derivative, which Kane's equations hold, is the known
+            acceleration ``a(t)``.
 
         Returns
         -------
@@ -204,7 +252,6 @@ class Model:
                 "found one without equations"
             )
         q, u = tuple(kane.q), tuple(kane.u)
-        t = TIME
         qd = sm.Matrix([qi.diff(t) for qi in q])
         ud = sm.Matrix([ui.diff(t) for ui in u])
         kin = kane.mass_matrix_kin * qd - kane.forcing_kin
@@ -217,6 +264,8 @@ class Model:
             unknown_inputs=unknown_inputs,
             outputs=q if outputs is None else outputs,
             parameters=parameters,
+            t=t,
+            input_derivatives=input_derivatives,
         )
 
     @classmethod
@@ -230,6 +279,8 @@ class Model:
         outputs: Mapping[sm.Basic, sm.Expr] | Sequence[sm.Basic] | None = None,
         parameters: Inputs = None,
         speed_prefix: str = "u_",
+        t: sm.Symbol = TIME,
+        input_derivatives: Mapping[sm.Basic, sm.Basic] | None = None,
     ) -> Model:
         """Build a model from a :class:`sympy.physics.mechanics.LagrangesMethod`.
 
@@ -243,7 +294,9 @@ class Model:
             With ``form_lagranges_equations`` already called.
         speed_prefix : str
             Prefix of the names of the speed states created for each coordinate.
-        controlled_inputs, known_inputs, unknown_inputs, outputs, parameters
+        controlled_inputs, known_inputs, unknown_inputs, outputs, parameters, t
+            As in :meth:`from_equations`.
+        input_derivatives : mapping, optional
             As in :meth:`from_equations`.
 
         Returns
@@ -257,9 +310,10 @@ class Model:
                 "lagrange: expected a LagrangesMethod whose form_lagranges_equations() has been "
                 "called; found one without equations"
             )
-        t = TIME
         q = tuple(lagrange.q)
         u = tuple(dynamicsymbols(f"{speed_prefix}{name_of(qi)}") for qi in q)
+        if t != TIME:
+            u = tuple(sm.Function(name_of(ui))(t) for ui in u)
         to_first_order: dict[sm.Basic, sm.Basic] = {}
         for qi, ui in zip(q, u, strict=True):
             to_first_order[qi.diff(t, 2)] = ui.diff(t)
@@ -279,6 +333,8 @@ class Model:
             unknown_inputs=unknown_inputs,
             outputs=q if outputs is None else outputs,
             parameters=parameters,
+            t=t,
+            input_derivatives=input_derivatives,
         )
 
     # ------------------------------------------------------------------ operations
@@ -439,3 +495,30 @@ class Model:
             "outputs": [name_of(y) for y in self.outputs],
             "num_equations": self.num_equations,
         }
+
+
+def _input_derivative_problems(mapping: Mapping[sm.Basic, sm.Basic], t: sm.Symbol) -> list[str]:
+    """What is wrong with an ``input_derivatives`` mapping (input -> its derivative's name)."""
+    if not isinstance(mapping, Mapping):
+        return [
+            "input_derivatives: expected a mapping input v(t) -> new function a(t) standing "
+            f"for v'(t), found {type(mapping).__name__}"
+        ]
+    problems = []
+    for v, a in mapping.items():
+        for label, f in (("key", v), ("value", a)):
+            if not is_function_of_time(f, t):
+                problems.append(
+                    f"input_derivatives: expected each {label} to be a function of time "
+                    f"{name_of(t)} such as v({name_of(t)}), found {f!r}"
+                )
+    return problems
+
+
+def _undeclared_inputs(
+    residual: sm.Matrix, declared: tuple[sm.Basic, ...], t: sm.Symbol
+) -> tuple[sm.Basic, ...]:
+    """Functions of time in ``residual`` declared nowhere and never differentiated."""
+    differentiated = {d.expr for d in derivatives_in(residual)}
+    found = functions_of_time(residual, t) - set(declared) - differentiated
+    return tuple(sorted(found, key=name_of))

@@ -6,6 +6,7 @@ from collections import Counter
 from collections.abc import Mapping
 
 import sympy as sm
+from sympy.core.function import AppliedUndef
 
 from colloc.model.symbols import (
     constants_in,
@@ -72,6 +73,19 @@ def validate_model(
             "expected one equation per state"
         )
 
+    other_time = sorted(
+        {
+            str(f)
+            for f in residual.atoms(AppliedUndef)
+            if f.args != (t,) and not is_function_of_time(f, t)
+        }
+    )
+    if other_time:
+        problems.append(
+            f"functions {other_time} are not functions of the model's time symbol "
+            f"{name_of(t)}: pass the symbol they use as t= (from_equations, from_kane, "
+            "from_lagrange), or build them with dynamicsymbols"
+        )
     declared = set(seen)
     in_residual = functions_of_time(residual, t)
     undeclared = in_residual - declared
@@ -85,7 +99,8 @@ def validate_model(
         if base not in states:
             problems.append(
                 f"the residual differentiates {name_of(base)}, which is not a state; "
-                "only state derivatives x'(t) may appear"
+                "only state derivatives x'(t) may appear (an input that enters through its "
+                "derivative is declared by input_derivatives={v: a})"
             )
         elif order > 1:
             problems.append(
