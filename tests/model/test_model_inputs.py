@@ -22,10 +22,10 @@ def support_pendulum() -> me.KanesMethod:
     """A bob on a massless rod from a support moving along x at the known speed ``v(t)``."""
     N = me.ReferenceFrame("N")
     B = N.orientnew("B", "Axis", (q, N.z))
-    O = me.Point("O")
-    O.set_vel(N, v * N.x)
-    P = O.locatenew("P", -L * B.y)
-    P.v2pt_theory(O, N, B)
+    support = me.Point("support")
+    support.set_vel(N, v * N.x)
+    P = support.locatenew("P", -L * B.y)
+    P.v2pt_theory(support, N, B)
     kane = me.KanesMethod(N, [q], [u], kd_eqs=[q.diff(t) - u])
     kane.kanes_equations([me.Particle("bob", P, m)], [(P, -m * g * N.y)])
     return kane

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import time
+import warnings
 from collections.abc import Callable, Mapping, Sequence
 from typing import Any
 
@@ -358,14 +359,35 @@ class Problem:
         log_path : str, optional
             Keep IPOPT's log at this path (it is also in ``stats["ipopt_log"]``).
         **ipopt_options
-            Passed to IPOPT (e.g. ``tol=1e-8``, ``max_iter=500``).
+            Passed to IPOPT (e.g. ``tol=1e-8``, ``max_iter=500``), over colloc's defaults
+            :data:`colloc.solve.ipopt.DEFAULT_OPTIONS`: ``tol=1e-8``, ``max_iter=3000``,
+            ``mu_strategy="adaptive"`` (IPOPT's own default is ``"monotone"``; pass it to
+            pose another tool's problem exactly), ``linear_solver="mumps"``.
 
         Returns
         -------
         Solution
+            Parameters that end at one of their bounds are named in
+            ``solution.status.at_bounds`` (and its message).
+
+        Warns
+        -----
+        UserWarning
+            When the initial guess lies outside the bounds: IPOPT moves such values inside
+            before its first iteration, so the solve does not start where it was asked to.
         """
         z0 = self._checked_guess(initial_guess)
         lo, hi = self.variable_bounds()
+        outside = np.flatnonzero((z0 < lo) | (z0 > hi))
+        if outside.size:
+            i = int(outside[0])
+            warnings.warn(
+                f"initial_guess: {outside.size} value(s) outside the bounds, first "
+                f"{self.layout.describe_variable(i)} = {z0[i]:.6g} not in [{lo[i]:.6g}, "
+                f"{hi[i]:.6g}]; IPOPT moves them inside before its first iteration",
+                UserWarning,
+                stacklevel=2,
+            )
         result: SolveResult = solve_nlp(
             self.nlp,
             z0,

@@ -60,11 +60,13 @@ class Solution:
         params: dict[sm.Symbol, float] = dict(problem.known_parameters)
         est = result.x[lay.parameter_offset :]
         params.update(zip(problem.partition.unknown_parameters, map(float, est), strict=True))
+        status = result.status.with_bounds(_at_bounds(problem, est))
         stats = {
             "status": result.status.name,
             "status_code": result.status.code,
             "success": result.status.success,
-            "message": str(result.status),
+            "message": str(status),
+            "at_bounds": list(status.at_bounds),
             "hint": result.status.hint,
             "iterations": result.iterations,
             "objective": result.objective,
@@ -93,7 +95,7 @@ class Solution:
             traj,
             params,
             problem.partition.unknown_parameters,
-            result.status,
+            status,
             stats,
             result.x.copy(),
             result.multipliers,
@@ -129,3 +131,21 @@ class Solution:
             f"objective={self.stats['objective']:.6g}, "
             f"unknown parameters={len(self.unknown_parameters)})"
         )
+
+
+def _at_bounds(problem: Problem, estimates: np.ndarray) -> tuple[str, ...]:
+    """Names of the unknown parameters within ``1e-6 (1 + |bound|)`` of a finite bound."""
+    lo, hi = problem.variable_bounds()
+    offset = problem.layout.parameter_offset
+    lo, hi = lo[offset:], hi[offset:]
+    near = np.zeros(estimates.shape, bool)
+    for bound in (lo, hi):
+        finite = np.abs(bound) < 1e19  # unbounded is +-1e20
+        near[finite] |= np.abs(estimates[finite] - bound[finite]) <= 1e-6 * (
+            1.0 + np.abs(bound[finite])
+        )
+    return tuple(
+        name_of(p)
+        for p, flag in zip(problem.partition.unknown_parameters, near, strict=True)
+        if flag
+    )

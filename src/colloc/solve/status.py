@@ -18,16 +18,30 @@ class SolveStatus:
         True for an optimum (or one acceptable to IPOPT's relaxed tolerances).
     hint : str
         What to try when it failed (empty on success).
+    at_bounds : tuple of str
+        Names of the unknown parameters that ended at one of their bounds: an optimum
+        there is the bound's, not the data's (widen the bound, or check the model).
     """
 
     code: int
     name: str
     success: bool
     hint: str
+    at_bounds: tuple[str, ...] = ()
 
     def __str__(self) -> str:
         text = f"{self.name} ({self.code})"
-        return text if not self.hint else f"{text}: {self.hint}"
+        text = text if not self.hint else f"{text}: {self.hint}"
+        if self.at_bounds:
+            text += (
+                f"; parameters at their bounds: {list(self.at_bounds)} (the optimum is the "
+                "bound's, not the data's: widen the bounds or check the model)"
+            )
+        return text
+
+    def with_bounds(self, names: tuple[str, ...]) -> SolveStatus:
+        """The same status, flagging ``names`` as parameters at their bounds."""
+        return SolveStatus(self.code, self.name, self.success, self.hint, tuple(names))
 
 
 _STATUS: dict[int, tuple[str, bool, str]] = {
