@@ -10,6 +10,7 @@ Reference: SciPy's ``solve_ivp`` of the hand-derived ``L q'' = -(g sin q + a cos
 from __future__ import annotations
 
 import numpy as np
+import pytest
 import sympy as sm
 import sympy.physics.mechanics as me
 from scipy.integrate import solve_ivp
@@ -31,16 +32,21 @@ def support_speed(time):
     return -2.0 / 2.3 * np.cos(2.3 * time) - 1.2 / 5.1 * np.cos(5.1 * time + 0.4)
 
 
-def plant() -> colloc.Model:
+def support_pendulum() -> me.KanesMethod:
+    """A bob on a massless rod from a support moving along x at the known speed ``v(t)``."""
     N = me.ReferenceFrame("N")
     B = N.orientnew("B", "Axis", (q, N.z))
     support = me.Point("support")
     support.set_vel(N, v * N.x)
-    bob = support.locatenew("bob", -L * B.y)
-    bob.v2pt_theory(support, N, B)
+    P = support.locatenew("P", -L * B.y)
+    P.v2pt_theory(support, N, B)
     kane = me.KanesMethod(N, [q], [u], kd_eqs=[q.diff(t) - u])
-    kane.kanes_equations([me.Particle("P", bob, m)], [(bob, -m * g * N.y)])
-    return colloc.Model.from_kane(kane, known_inputs=[v], input_derivatives={v: a})
+    kane.kanes_equations([me.Particle("bob", P, m)], [(P, -m * g * N.y)])
+    return kane
+
+
+def plant() -> colloc.Model:
+    return colloc.Model.from_kane(support_pendulum(), known_inputs=[v], input_derivatives={v: a})
 
 
 def test_rod_length_from_noisy_angles_within_its_standard_error():
@@ -70,3 +76,23 @@ def test_rod_length_from_noisy_angles_within_its_standard_error():
     se = colloc.parameter_uncertainty(problem, solution).standard_errors[L]
     assert abs(solution.parameters[L] - length) < 3 * se
     assert se < 0.01 * length  # and the data do determine it
+
+
+def test_an_input_through_its_derivative_is_accepted_with_input_derivatives():
+    kane = support_pendulum()
+    assert v.diff(t) in kane.forcing.atoms(sm.Derivative)
+    with pytest.raises(colloc.ModelError, match=r"differentiates v.*input_derivatives=\{v: a\}"):
+        colloc.Model.from_kane(kane, known_inputs=[v])
+    model = colloc.Model.from_kane(kane, known_inputs=[v], input_derivatives={v: a})
+    assert a in model.known_inputs and v in model.known_inputs
+    assert not any(d.expr == v for d in model.residual.atoms(sm.Derivative))
+    acceleration = sm.solve(model.residual[1], u.diff(t))[0]
+    assert sm.simplify(acceleration + (g * sm.sin(q) + a * sm.cos(q)) / L) == 0
+
+
+def test_input_derivatives_are_validated():
+    kane = support_pendulum()
+    with pytest.raises(colloc.ModelError, match="input_derivatives: expected each value"):
+        colloc.Model.from_kane(kane, known_inputs=[v], input_derivatives={v: sm.Symbol("a")})
+    with pytest.raises(colloc.ModelError, match="input_derivatives: expected a mapping"):
+        colloc.Model.from_kane(kane, known_inputs=[v], input_derivatives=[(v, a)])  # type: ignore[arg-type]

@@ -132,14 +132,10 @@ def test_midpoint_recovers_the_simulated_schedule():
     np.testing.assert_allclose(K_hat, K, atol=3e-3 * np.abs(K).max())
 
 
-def test_first_step_equals_a_direct_solve_of_the_kkt_system(solved):
-    """Condensing over segments is exact linear algebra: the first (undamped, full) step is
-    the solution of [H J^T; J 0] with H the objective's Hessian, solved by SuperLU."""
-    problem, gs, Tstar, K, guess, _, torques = solved
-    if torques:
-        # near the true schedule, so that the line search takes most of the first step
-        states = {x: guess[problem.layout.node_indices(name_of(x))] for x in problem.model.states}
-        guess = problem.initial_guess(states, gs.parameter_values(1.1 * Tstar, 0.9 * K))
+def first_steps(problem, guess):
+    """The first Gauss-Newton step by a SuperLU solve of the whole KKT system
+    ``[H J^T; J 0]`` (H the objective's Gauss-Newton Hessian), and one iteration of the
+    solver (13-node segments, no damping)."""
     nlp = problem.nlp
     jr, jc = nlp.jacobianstructure()
     J = sp.csr_matrix((nlp.jacobian(guess), (jr, jc)), shape=(nlp.m, nlp.n))
@@ -150,7 +146,18 @@ def test_first_step_equals_a_direct_solve_of_the_kkt_system(solved):
     rhs = np.r_[-nlp.gradient(guess), -nlp.constraints(guess)]
     direct = spla.spsolve(kkt, rhs)[: nlp.n]
     options = GaussNewtonOptions(segment_nodes=13, max_iter=1, damping=1e-14)
-    result = solve_gauss_newton(nlp, guess, problem.chain_structure(), options)
+    return direct, solve_gauss_newton(nlp, guess, problem.chain_structure(), options)
+
+
+def test_first_step_equals_a_direct_solve_of_the_kkt_system(solved):
+    """Condensing over segments is exact linear algebra: the first (undamped, full) step is
+    the solution of [H J^T; J 0] with H the objective's Hessian, solved by SuperLU."""
+    problem, gs, Tstar, K, guess, _, torques = solved
+    if torques:
+        # near the true schedule, so that the line search takes most of the first step
+        states = {x: guess[problem.layout.node_indices(name_of(x))] for x in problem.model.states}
+        guess = problem.initial_guess(states, gs.parameter_values(1.1 * Tstar, 0.9 * K))
+    direct, result = first_steps(problem, guess)
     alpha = result.history[0]["alpha"]
     assert alpha == 1.0 or torques  # the line search may shorten the step, not turn it
     np.testing.assert_allclose((result.x - guess) / alpha, direct, atol=1e-7 * np.abs(direct).max())
@@ -247,16 +254,6 @@ def test_free_inputs_reach_ipopts_optimum(noise_model, segment):
 
 def test_first_step_with_free_inputs_equals_a_direct_kkt_solve(noise_model):
     problem, guess, _ = noise_model
-    nlp = problem.nlp
-    jr, jc = nlp.jacobianstructure()
-    J = sp.csr_matrix((nlp.jacobian(guess), (jr, jc)), shape=(nlp.m, nlp.n))
-    hr, hc = nlp.hessianstructure()
-    Hl = sp.csr_matrix((nlp.gauss_newton_hessian(guess), (hr, hc)), (nlp.n, nlp.n))
-    H = Hl + sp.triu(Hl.T, 1)
-    kkt = sp.bmat([[H, J.T], [J, None]], format="csc")
-    rhs = np.r_[-nlp.gradient(guess), -nlp.constraints(guess)]
-    direct = spla.spsolve(kkt, rhs)[: nlp.n]
-    options = GaussNewtonOptions(segment_nodes=13, max_iter=1, damping=1e-14)
-    result = solve_gauss_newton(nlp, guess, problem.chain_structure(), options)
+    direct, result = first_steps(problem, guess)
     alpha = result.history[0]["alpha"]
     np.testing.assert_allclose((result.x - guess) / alpha, direct, atol=1e-7 * np.abs(direct).max())
