@@ -306,17 +306,45 @@ class Problem:
 
     def initial_guess(
         self,
-        trajectories: Mapping[sm.Basic, np.ndarray | float] | None = None,
-        parameters: Mapping[sm.Symbol, float] | None = None,
+        trajectories: Mapping[sm.Basic, np.ndarray | float] | np.ndarray | None = None,
+        parameters: Mapping[sm.Symbol, float] | np.ndarray | Sequence[float] | None = None,
         default: float = 0.0,
     ) -> np.ndarray:
-        """Build a free vector from trajectories and parameter values by symbol.
+        """Build a free vector from trajectories and parameter values.
 
         Derivative variables (trapezoidal, Hermite-Simpson) are filled by finite differences
         of the state guesses and midpoint states by interpolation, so a good state guess
-        gives a nearly feasible start.
+        gives a nearly feasible start. Measured inputs not given start at their measurement.
+
+        Parameters
+        ----------
+        trajectories : mapping or ndarray, optional
+            State or free-input symbol -> values at the nodes (shape ``(N,)``) or a constant;
+            or an array of shape ``(N, n)`` whose columns are the model's states in order,
+            or ``(N, n + m)``: the states, then the free inputs
+            (``problem.partition.free_inputs``).
+        parameters : mapping or array, optional
+            Unknown parameter symbol -> value, or the values of every unknown parameter in
+            the order of ``problem.layout.parameter_names``.
+        default : float
+            Value of everything not given.
+
+        Returns
+        -------
+        ndarray
+            The free vector, for :meth:`solve` or :meth:`solve_gauss_newton`.
+
+        Raises
+        ------
+        ValueError
+            When an array has another shape than those above, naming the expected one.
+        KeyError
+            When a mapping names a symbol that is not a state, free input or unknown
+            parameter.
         """
         lay = self.layout
+        trajectories = self._trajectories_by_symbol(trajectories)
+        parameters = self._parameters_by_symbol(parameters)
         given = dict(trajectories or {})
         for r, (values, _) in self.measured_inputs.items():
             if r not in given:
@@ -334,6 +362,40 @@ class Problem:
         if lay.num_interval_variables:
             lay.interval_matrix(z)[:] = self.scheme.interval_guess(states, self.grid)
         return z
+
+    def _trajectories_by_symbol(
+        self, trajectories: Mapping[sm.Basic, np.ndarray | float] | np.ndarray | None
+    ) -> Mapping[sm.Basic, np.ndarray | float] | None:
+        """An array of trajectories as a mapping by symbol (states, then free inputs)."""
+        if trajectories is None or isinstance(trajectories, Mapping):
+            return trajectories
+        values = np.asarray(trajectories, dtype=float)
+        states, free = list(self.model.states), list(self.partition.free_inputs)
+        N = self.layout.num_nodes
+        shapes = [(N, len(states))] + ([(N, len(states) + len(free))] if free else [])
+        if values.shape not in shapes:
+            raise ValueError(
+                f"trajectories: expected a mapping by symbol or an array of shape "
+                f"{' or '.join(map(str, shapes))} (columns: "
+                f"{[name_of(x) for x in states + free]}), found shape {values.shape}"
+            )
+        return dict(zip(states + free, values.T, strict=False))
+
+    def _parameters_by_symbol(
+        self, parameters: Mapping[sm.Symbol, float] | np.ndarray | Sequence[float] | None
+    ) -> Mapping[sm.Symbol, float] | None:
+        """An array of parameter values as a mapping by symbol (the layout's order)."""
+        if parameters is None or isinstance(parameters, Mapping):
+            return parameters
+        values = np.asarray(parameters, dtype=float)
+        unknown = self.partition.unknown_parameters
+        if values.shape != (len(unknown),):
+            raise ValueError(
+                f"parameters: expected a mapping by symbol or an array of shape "
+                f"({len(unknown)},) in the order of layout.parameter_names, found shape "
+                f"{values.shape}"
+            )
+        return dict(zip(unknown, values, strict=True))
 
     # ---------------------------------------------------------------- solve
     def solve(
