@@ -77,7 +77,7 @@ def main() -> None:
     for length in args.segment_nodes:
         step = gauss_newton._Step(chain, gauss_newton._segments(chain.N, length))
         condense_s, reduced = median_seconds(
-            lambda step=step: step.condense(blocks, np.inf), args.repeats
+            lambda step=step: step.condense(blocks, np.inf, 1e-6), args.repeats
         )
         solve_s, _ = median_seconds(
             lambda step=step, reduced=reduced: step.solve(blocks, reduced, 1e-6), args.repeats
