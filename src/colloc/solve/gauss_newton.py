@@ -499,7 +499,9 @@ class _Step:
             base = n + (last - first + 1) * m
             X = np.zeros((n, base + q + 1))
             X[:, :n] = np.eye(n)
-            V = np.zeros((nv, base + q + 1))  # d v_k / d unknowns
+            # d v_k / d unknowns: the states' rows are X's, the inputs' rows pick u_k (without
+            # inputs V is X itself, saving a copy per node)
+            V = X if m == 0 else np.zeros((nv, base + q + 1))
             columns = _Reached(q)
             d = np.zeros(n)
             rows: list[np.ndarray] = []
@@ -509,9 +511,9 @@ class _Step:
             cross = np.zeros((base + q + 1, q + 1) if coupled else (0, 0))
             for k in range(first, last + 1):
                 w = base + columns.count
-                V[:n, :w] = X[:, :w]
                 u = n + (k - first) * m
                 if m:
+                    V[:n, :w] = X[:, :w]
                     V[n:, u - m : u] = 0.0
                     V[n:, u : u + m] = np.eye(m)
                 dv = np.r_[d, np.zeros(m)]
