@@ -234,17 +234,16 @@ def identify_gait(
     Tstar, K = gs.arrays({p: solution.parameters[p] for p in gs.parameters})
     lap("solve")
 
-    # the sandwich's blocks: one per stride (the first from the window's start)
-    strikes = data.trial.right_heel_strikes
-    inside = np.searchsorted(t, strikes[(strikes > t[0]) & (strikes < t[-1])])
-    strides = np.r_[0, inside[inside > 0]]
+    strides = None
     if settings.process_noise is None:
         say("uncertainty", "Fisher information at the estimate, known noise levels")
     else:
+        # the sandwich's blocks: one per stride (the first from the window's start)
+        strikes = data.trial.right_heel_strikes
+        inside = np.searchsorted(t, strikes[(strikes > t[0]) & (strikes < t[-1])])
+        strides = np.r_[0, inside[inside > 0]]
         say("uncertainty", f"sandwich over {strides.size} strides")
-    Tstar_se, K_se = _standard_errors(
-        problem, solution, gs, weights_n, notes, strides if settings.process_noise else None
-    )
+    Tstar_se, K_se = _standard_errors(problem, solution, gs, weights_n, notes, strides)
     collocation = ControllerEstimate(Tstar, K, Tstar_se, K_se)
     lap("uncertainty")
 

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -60,7 +60,7 @@ class Solution:
         params: dict[sm.Symbol, float] = dict(problem.known_parameters)
         est = result.x[lay.parameter_offset :]
         params.update(zip(problem.partition.unknown_parameters, map(float, est), strict=True))
-        status = result.status.with_bounds(_at_bounds(problem, est))
+        status = replace(result.status, at_bounds=_at_bounds(problem, est))
         stats = {
             "status": result.status.name,
             "status_code": result.status.code,

@@ -486,8 +486,7 @@ class _Step:
         n, m, nv, q, S = ch.n, ch.m, ch.nv, ch.q, len(self.segments)
         H_loc = np.zeros((S, n, n))
         H_cross = np.zeros((S, n, q + 1))
-        H_theta = np.zeros((q + 1, q + 1))
-        H_theta[:q, :q] = b.H_theta
+        H_theta = b.H_theta.copy()
         g_loc = np.zeros((S, n))
         g_theta = np.r_[b.g_theta, 0.0]
         links = _Links(S - 1, n, m, q)
@@ -570,9 +569,7 @@ class _Step:
             H_theta[np.ix_(params, params)] += Q[n:, n:]
             g_loc[s] += gq[:n]
             g_theta[params] += gq[n:]
-        return _Reduced(
-            H_loc, H_cross[:, :, :q], H_theta[:q, :q], g_loc, g_theta[:q], links, inputs
-        )
+        return _Reduced(H_loc, H_cross[:, :, :q], H_theta, g_loc, g_theta[:q], links, inputs)
 
     def _eliminate_inputs(
         self,

@@ -39,10 +39,6 @@ class SolveStatus:
             )
         return text
 
-    def with_bounds(self, names: tuple[str, ...]) -> SolveStatus:
-        """The same status, flagging ``names`` as parameters at their bounds."""
-        return SolveStatus(self.code, self.name, self.success, self.hint, tuple(names))
-
 
 _STATUS: dict[int, tuple[str, bool, str]] = {
     0: ("Solve_Succeeded", True, ""),
