@@ -22,6 +22,7 @@ _EXPORTS = {
     "linearize": "colloc.model.linearize",
     "StateSpace": "colloc.model.state_space",
     "IntegralCost": "colloc.nlp",
+    "KnownTrajectory": "colloc.nlp",
     "Problem": "colloc.nlp",
     "Solution": "colloc.nlp",
     "TerminalCost": "colloc.nlp",
@@ -44,7 +45,14 @@ if TYPE_CHECKING:  # for type checkers; re-exported through __all__
     from colloc.model import Model, ModelError, ProblemDefinitionError
     from colloc.model.linearize import linearize
     from colloc.model.state_space import StateSpace
-    from colloc.nlp import IntegralCost, Problem, Solution, TerminalCost, Tracking
+    from colloc.nlp import (
+        IntegralCost,
+        KnownTrajectory,
+        Problem,
+        Solution,
+        TerminalCost,
+        Tracking,
+    )
     from colloc.nlp.residuals import ResidualDiagnostics, residual_diagnostics
     from colloc.nlp.uncertainty import (
         ParameterUncertainty,

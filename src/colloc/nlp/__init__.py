@@ -1,8 +1,17 @@
 """The collocation problem, its layout, objective terms and solution."""
 
+from colloc.nlp.known import KnownTrajectory
 from colloc.nlp.layout import Layout
 from colloc.nlp.objective import IntegralCost, TerminalCost, Tracking
 from colloc.nlp.problem import Problem
 from colloc.nlp.solution import Solution
 
-__all__ = ["IntegralCost", "Layout", "Problem", "Solution", "TerminalCost", "Tracking"]
+__all__ = [
+    "IntegralCost",
+    "KnownTrajectory",
+    "Layout",
+    "Problem",
+    "Solution",
+    "TerminalCost",
+    "Tracking",
+]

@@ -7,7 +7,7 @@ the two schedule points that bracket the phase where the item evaluates the resi
 from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 import sympy as sm
@@ -18,14 +18,20 @@ from colloc.nlp.objective import NodeTerm
 from colloc.nlp.templates import Partition, row_names
 from colloc.numeric.stencil import StencilFunctions
 from colloc.transcription.base import Scheme, TimeGrid
+from colloc.transcription.interpolation import CubicInterpolation, Interpolation
 
 
 @dataclass(frozen=True)
 class GridData:
-    """What changes with a new data set: known trajectories and parameter values."""
+    """What changes with a new data set: known trajectories and parameter values.
+
+    ``interpolations`` says how each known trajectory is evaluated between the nodes
+    (cubic where it names none).
+    """
 
     known_trajectories: Mapping[sm.Basic, np.ndarray]
     known_parameters: Mapping[sm.Symbol, float]
+    interpolations: Mapping[sm.Basic, Interpolation] = field(default_factory=dict)
 
 
 def _slots(
@@ -74,7 +80,14 @@ def assemble(
     R = np.column_stack(
         [data.known_trajectories[r] for r in part.known_inputs] or [np.zeros((N, 0))]
     )
-    Rm = grid.midpoint_values(R) if R.shape[1] else np.zeros((N - 1, 0))
+    cubic = CubicInterpolation()
+    Rm = np.column_stack(
+        [
+            data.interpolations.get(r, cubic).midpoint_values(grid, data.known_trajectories[r])
+            for r in part.known_inputs
+        ]
+        or [np.zeros((N - 1, 0))]
+    )
     pk = np.array([data.known_parameters[p] for p in part.plain_known], float)
     t, h = grid.times, grid.steps
     fraction = 0.5 if scheme.interval_evaluation is None else scheme.interval_evaluation

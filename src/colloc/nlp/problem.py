@@ -15,6 +15,7 @@ from colloc.model.model import Model
 from colloc.model.symbols import name_of
 from colloc.nlp.assembly import AssembledNLP
 from colloc.nlp.build import build_templates
+from colloc.nlp.known import KnownTrajectory
 from colloc.nlp.layout import Layout
 from colloc.nlp.objective import NodeTerm, ObjectiveTerm, Tracking
 from colloc.nlp.placement import GridData, assemble
@@ -36,6 +37,7 @@ from colloc.solve.gauss_newton import ChainStructure, GaussNewtonOptions, solve_
 from colloc.solve.ipopt import solve_nlp
 from colloc.solve.result import SolveResult
 from colloc.transcription.base import Scheme, TimeGrid
+from colloc.transcription.interpolation import Interpolation
 from colloc.transcription.midpoint import Midpoint
 
 _INF = 1e20  # IPOPT treats |bound| >= 1e19 as infinite
@@ -53,8 +55,12 @@ class Problem:
     scheme : Scheme, optional
         A scheme object such as ``Midpoint()`` (default) or ``HermiteSimpson()``.
     known_trajectories : mapping, optional
-        Input symbol -> values at the nodes. Every known input of the model needs one;
-        other inputs without one (controlled or unknown inputs) become free trajectories.
+        Input symbol -> values at the nodes, or a :class:`colloc.KnownTrajectory` that also
+        says how the input is evaluated between the nodes (plain arrays: a cubic through
+        the four surrounding nodes; ``KnownTrajectory(values, "linear")``: the mean of
+        the two, as tools that average the nodes do). Every known input of the model needs
+        one; other inputs without one (controlled or unknown inputs) become free
+        trajectories.
     known_parameters : mapping, optional
         Parameter symbol -> value.
     objective : ObjectiveTerm or sequence, optional
@@ -121,8 +127,14 @@ class Problem:
             model, measured_inputs or {}, known_trajectories or {}, N, problems
         )
         self.process_noise = check_process_noise(model, process_noise or {}, problems)
+        self.interpolations: dict[sm.Basic, Interpolation] = {}
         self.known_trajectories = check_trajectories(
-            model, known_trajectories or {}, N, problems, tuple(measured_inputs or {})
+            model,
+            known_trajectories or {},
+            N,
+            problems,
+            tuple(measured_inputs or {}),
+            self.interpolations,
         )
         self.known_parameters, unknown = check_parameters(
             model, known_parameters or {}, unknown_parameters, problems
@@ -216,7 +228,7 @@ class Problem:
             templates,
             node_terms,
             ic_locs,
-            GridData(self.known_trajectories, self.known_parameters),
+            GridData(self.known_trajectories, self.known_parameters, self.interpolations),
         )
 
     def replace_data(
@@ -229,7 +241,9 @@ class Problem:
 
         The new objective terms must have the same structure (the same outputs tracked),
         and the same parameters must be known; only their data change, which the built
-        functions take as inputs (e.g. a continuation in a contact stiffness).
+        functions take as inputs (e.g. a continuation in a contact stiffness). A known
+        trajectory given as a plain array keeps the rule between the nodes it was built
+        with; a :class:`colloc.KnownTrajectory` sets its own.
 
         Raises
         ------
@@ -239,7 +253,8 @@ class Problem:
         problems: list[str] = []
         N = self.grid.num_nodes
         if known_trajectories is not None:
-            new = check_trajectories(self.model, known_trajectories, N, problems)
+            chosen: dict[sm.Basic, Interpolation] = {}
+            new = check_trajectories(self.model, known_trajectories, N, problems, (), chosen)
             check_schedules(
                 self.model, self.known_parameters, self.partition.unknown_parameters, new, problems
             )
@@ -276,6 +291,14 @@ class Problem:
         raise_if_any(problems, ProblemDefinitionError)
         if known_trajectories is not None:
             self.known_trajectories = new
+            # a plain array keeps the rule the input was built with
+            self.interpolations.update(
+                {
+                    r: rule
+                    for r, rule in chosen.items()
+                    if isinstance(known_trajectories[r], KnownTrajectory)
+                }
+            )
         self.known_parameters = values
         self._node_terms = terms
         self.nlp = self._assemble(self._templates, terms, self._ic_locs)

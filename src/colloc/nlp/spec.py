@@ -11,7 +11,9 @@ from sympy.core.function import AppliedUndef
 
 from colloc.model.model import Model
 from colloc.model.symbols import name_of
+from colloc.nlp.known import KnownTrajectory
 from colloc.nlp.objective import ObjectiveTerm
+from colloc.transcription.interpolation import CubicInterpolation, Interpolation
 
 Bounds = Mapping[sm.Basic, tuple[float, float]]
 
@@ -22,11 +24,21 @@ def check_trajectories(
     num_nodes: int,
     problems: list[str],
     measured: Sequence[sm.Basic] = (),
+    interpolations: dict[sm.Basic, Interpolation] | None = None,
 ) -> dict[sm.Basic, np.ndarray]:
     """Known input trajectories: each an input of the model, one finite value per node
-    (a known input of the model may instead be ``measured``: a free trajectory tracked)."""
+    (a known input of the model may instead be ``measured``: a free trajectory tracked).
+
+    Entries may be :class:`KnownTrajectory`; the rule of each between the nodes is written
+    into ``interpolations`` when given (cubic for plain arrays).
+    """
     out: dict[sm.Basic, np.ndarray] = {}
-    for r, values in known.items():
+    for r, entry in known.items():
+        values = entry.values if isinstance(entry, KnownTrajectory) else entry
+        if interpolations is not None:
+            interpolations[r] = (
+                entry.between if isinstance(entry, KnownTrajectory) else CubicInterpolation()
+            )
         if r not in model.inputs:
             where = "a state" if r in model.states else "not an input of the model"
             problems.append(
