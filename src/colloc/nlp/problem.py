@@ -309,23 +309,66 @@ class Problem:
         lay = self.layout
         lo, hi = np.full(lay.num_variables, -_INF), np.full(lay.num_variables, _INF)
         for s, (a, b) in self.bounds.items():
-            name = name_of(s)
-            if name in lay.node_names:
-                idx = lay.node_indices(name)
-                lo[idx], hi[idx] = a, b
-                mid = f"{name}_mid"
-                if mid in lay.interval_names:
-                    j = lay.interval_names.index(mid)
-                    idx = (
-                        lay.interval_offset
-                        + j
-                        + lay.num_interval_variables * np.arange(lay.num_nodes - 1)
-                    )
-                    lo[idx], hi[idx] = a, b
-            else:
-                i = lay.variable_index(name)
-                lo[i], hi[i] = a, b
+            idx = self._free_indices(s)
+            lo[idx], hi[idx] = a, b
         return np.maximum(lo, -_INF), np.minimum(hi, _INF)
+
+    def variable_scale(self, scale: Mapping[sm.Basic, Any] | None) -> np.ndarray:
+        """Typical magnitude of every free variable: those given, 1 elsewhere.
+
+        Parameters
+        ----------
+        scale : mapping, optional
+            State, free input or unknown parameter -> a positive typical magnitude.
+
+        Returns
+        -------
+        ndarray, shape (num_variables,)
+
+        Raises
+        ------
+        ValueError
+            When a key is not a free quantity or a value is not a positive finite number.
+        """
+        out = np.ones(self.layout.num_variables)
+        if scale is None:
+            return out
+        if not isinstance(scale, Mapping):
+            raise ValueError(
+                f"scale: expected a mapping symbol -> typical magnitude, found "
+                f"{type(scale).__name__}"
+            )
+        free = set(self.model.states) | set(self.partition.free_inputs)
+        free |= set(self.partition.unknown_parameters)
+        problems = []
+        for s, value in scale.items():
+            try:
+                v = float(value)
+            except (TypeError, ValueError):
+                v = float("nan")
+            if s not in free:
+                problems.append(f"{name_of(s)} is not a state, free input or unknown parameter")
+            elif not (np.isfinite(v) and v > 0):
+                problems.append(f"{name_of(s)}: expected a positive number, found {value!r}")
+            else:
+                out[self._free_indices(s)] = v
+        if problems:
+            raise ValueError("scale: " + "; ".join(problems))
+        return out
+
+    def _free_indices(self, s: sm.Basic) -> np.ndarray:
+        """Where a state, free input or unknown parameter sits in the free vector (a state's
+        interval copies included)."""
+        lay, name = self.layout, name_of(s)
+        if name not in lay.node_names:
+            return np.array([lay.variable_index(name)])
+        idx = np.asarray(lay.node_indices(name))
+        mid = f"{name}_mid"
+        if mid in lay.interval_names:
+            j = lay.interval_names.index(mid)
+            step = lay.num_interval_variables * np.arange(lay.num_nodes - 1)
+            idx = np.concatenate([idx, lay.interval_offset + j + step])
+        return idx
 
     def initial_guess(
         self,
@@ -427,6 +470,7 @@ class Problem:
         hessian: str = "exact",
         progress: Callable[[dict[str, float]], None] | None = None,
         log_path: str | None = None,
+        scale: Mapping[sm.Basic, Any] | None = None,
         **ipopt_options: Any,
     ) -> Solution:
         """Solve with IPOPT (MUMPS).
@@ -443,6 +487,11 @@ class Problem:
             ``infeasibility`` (primal), ``dual_infeasibility``.
         log_path : str, optional
             Keep IPOPT's log at this path (it is also in ``stats["ipopt_log"]``).
+        scale : mapping, optional
+            State, free input or unknown parameter -> its typical magnitude: IPOPT then
+            solves for ``value / magnitude``, so that gains of 1e3 and of 1e-1 take steps
+            and barrier terms on one scale (IPOPT's own scaling acts on the objective and
+            constraints only). Unscaled by default; the solution is the same problem's.
         **ipopt_options
             Passed to IPOPT (e.g. ``tol=1e-8``, ``max_iter=500``), over colloc's defaults
             :data:`colloc.solve.ipopt.DEFAULT_OPTIONS`: ``tol=1e-8``, ``max_iter=3000``,
@@ -462,6 +511,7 @@ class Problem:
             before its first iteration, so the solve does not start where it was asked to.
         """
         z0 = self._checked_guess(initial_guess)
+        magnitudes = self.variable_scale(scale)
         lo, hi = self.variable_bounds()
         outside = np.flatnonzero((z0 < lo) | (z0 > hi))
         if outside.size:
@@ -482,6 +532,7 @@ class Problem:
             progress=progress,
             log_path=log_path,
             options=ipopt_options,
+            variable_scale=None if scale is None else magnitudes,
         )
         return Solution.from_result(self, result)
 

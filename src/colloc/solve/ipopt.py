@@ -18,6 +18,7 @@ import numpy as np
 
 from colloc.solve.ipopt_capi import CProblem
 from colloc.solve.result import NLP, SolveResult
+from colloc.solve.scaling import ScaledNLP
 from colloc.solve.status import status_from_code
 
 HESSIAN_CHOICES = ("exact", "limited-memory", "gauss-newton")
@@ -82,6 +83,12 @@ class _Callbacks:
         return True
 
 
+def _scaled_bound(bound: np.ndarray, scale: np.ndarray) -> np.ndarray:
+    """``bound / scale`` where finite; IPOPT's infinite bounds (``|b| >= 1e19``) stay so."""
+    b = np.asarray(bound, dtype=float)
+    return np.where(np.abs(b) >= 1e19, b, b / scale)
+
+
 def solve_nlp(
     nlp: NLP,
     x0: np.ndarray,
@@ -92,6 +99,7 @@ def solve_nlp(
     progress: Callable[[dict[str, float]], None] | None = None,
     log_path: str | os.PathLike[str] | None = None,
     options: Mapping[str, Any] | None = None,
+    variable_scale: np.ndarray | None = None,
 ) -> SolveResult:
     """Solve ``min f(z) s.t. g(z) = 0, lower <= z <= upper`` with IPOPT.
 
@@ -108,6 +116,9 @@ def solve_nlp(
         Where to keep IPOPT's log (a temporary file otherwise; its text is returned).
     options : mapping, optional
         IPOPT options, overriding :data:`DEFAULT_OPTIONS`.
+    variable_scale : ndarray, optional
+        Typical magnitude of each variable (positive): IPOPT then works in ``z / scale``
+        (see :mod:`colloc.solve.scaling`). The result is in ``z``.
 
     Returns
     -------
@@ -117,7 +128,10 @@ def solve_nlp(
         raise ValueError(f"hessian: expected one of {HESSIAN_CHOICES}, found {hessian!r}")
     approximation = "limited-memory" if hessian == "limited-memory" else "exact"
     opts = {**DEFAULT_OPTIONS, "hessian_approximation": approximation, **dict(options or {})}
-    callbacks = _Callbacks(nlp, progress, gauss_newton=hessian == "gauss-newton")
+    scale = np.ones(nlp.n) if variable_scale is None else np.asarray(variable_scale, float)
+    inner: NLP = nlp if variable_scale is None else ScaledNLP(nlp, scale)
+    lower, upper = _scaled_bound(lower, scale), _scaled_bound(upper, scale)
+    callbacks = _Callbacks(inner, progress, gauss_newton=hessian == "gauss-newton")
     problem = CProblem(nlp.n, nlp.m, callbacks, lower, upper, np.zeros(nlp.m), np.zeros(nlp.m))
     tmp_dir = None
     if log_path is None:
@@ -137,7 +151,7 @@ def solve_nlp(
             except TypeError as exc:
                 raise ValueError(f"ipopt option {key}={value!r} was refused: {exc}") from exc
         t0 = time.perf_counter()
-        x, info = problem.solve(np.asarray(x0, dtype=float))
+        x, info = problem.solve(np.asarray(x0, dtype=float) / scale)
         elapsed = time.perf_counter() - t0
         log = log_file.read_text(errors="replace") if log_file.is_file() else ""
     finally:
@@ -147,7 +161,7 @@ def solve_nlp(
     g = np.asarray(info["g"], dtype=float)
     iterations = int(callbacks.history[-1]["iteration"]) if callbacks.history else 0
     return SolveResult(
-        x=np.asarray(x, dtype=float),
+        x=scale * np.asarray(x, dtype=float),
         status=status_from_code(int(info["status"])),
         objective=float(info["obj_val"]),
         constraint_violation=float(np.max(np.abs(g))) if g.size else 0.0,
