@@ -75,6 +75,7 @@ def parameter_uncertainty(
     num_measurements: int | None = None,
     method: str = "kkt",
     blocks: int | Sequence[int] | None = None,
+    per_output: bool = False,
 ) -> ParameterUncertainty:
     """Standard errors of ``solution``'s unknown parameters.
 
@@ -103,6 +104,18 @@ def parameter_uncertainty(
     blocks : int or sequence of int, optional
         Sandwich only: the number of equal time blocks, or the first node of each block
         (e.g. each stride's heel strike). Default ``round(sqrt(N))`` blocks.
+    per_output : bool
+        KKT only. False (default): one noise variance per unit weight, pooled over every
+        tracked signal, so the weights must be ``1 / sigma_j^2`` up to one common factor
+        for the errors to mean anything. True: each tracked signal's variance per unit
+        weight is estimated from its own residuals (``sum w r^2`` over its share
+        ``n_j dof / num_measurements`` of the degrees of freedom), and the covariance is
+        that of the estimator the weights define,
+        ``[K^-1]_p,: (sum_i 4 w_i^2 v_i grad r_i grad r_i^T) [K^-1]_:,p`` with ``v_i`` the
+        sample's variance: right whatever the weights, when the noise is white. The
+        priors of ``process_noise`` and ``measured_inputs`` keep their given variances
+        (their weights are taken as ``1 / sigma^2``). ``noise_variance`` is then the
+        pooled value, for reference.
 
     Returns
     -------
@@ -134,8 +147,13 @@ def parameter_uncertainty(
     hessian = problem.nlp.hessian(solution.z, solution.multipliers, 1.0)
     kkt = _ReducedKKT(problem, solution.z, hessian)
     sigma2 = float(solution.stats["objective"]) / dof
+    if starts is None and per_output:
+        cov = _per_output_covariance(problem, solution.z, kkt, dof / num_measurements)
+        return _result(problem, cov, sigma2, dof, "kkt per output", None)
     if starts is None:
         return _result(problem, 2.0 * sigma2 * kkt.parameter_block(), sigma2, dof, "kkt", None)
+    if per_output:
+        raise ValueError("per_output: only for method='kkt' (the sandwich needs no variances)")
     G = _block_gradients(problem, solution.z, starts)
     priors = [r for r in tracking_residuals(problem, solution.z) if r.kind != "tracking"]
     cov = np.zeros((q, q))
@@ -155,6 +173,54 @@ def parameter_uncertainty(
     nb = starts.size
     cov += nb / (nb - 1) * (U @ U.T)
     return _result(problem, 0.5 * (cov + cov.T), sigma2, dof, "sandwich", nb)
+
+
+def _per_output_covariance(
+    problem: Problem, z: np.ndarray, kkt: _ReducedKKT, dof_share: float
+) -> np.ndarray:
+    """``[K^-1]_p,: (sum_i 4 w_i^2 v_i g_i g_i^T) [K^-1]_:,p`` with each tracked signal's
+    variance per unit weight from its own residuals (priors: their given variance)."""
+    p = problem.nlp.objective_placement
+    assert p is not None  # parameter_uncertainty needs a tracking objective
+    terms = problem.node_terms
+    widths = [t.data.shape[1] for t in terms]
+    base = p.data.shape[1] - sum(widths) - len(terms) - 1
+    factor_col = base + sum(widths)
+    local = p.gather(z)
+    q = len(problem.partition.unknown_parameters)
+    cov = np.zeros((q, q))
+    signals = iter(tracking_residuals(problem, z))
+    offset = base
+    for i, term in enumerate(terms):
+        m = len(term.signals)
+        for j in range(m):
+            signal = next(signals)
+            data = p.data.copy()
+            data[:, factor_col : factor_col + len(terms)] = 0.0
+            data[:, factor_col + i] = term.factors
+            data[:, offset + m : offset + 2 * m] = 0.0
+            data[:, offset + m + j] = signal.weights
+            # d/dz [w (y - d)^2 - w (y - d - 1)^2] = 2 w grad y: the sample's gradient factor
+            g0 = p.mapped.jacobian(local, data)
+            data[:, offset + j] += 1.0
+            slope = (g0 - p.mapped.jacobian(local, data)).reshape(p.count, -1)
+            w = signal.weights * term.factors
+            used = w > 0
+            r = np.where(used, signal.residuals, 0.0)
+            variance = 1.0  # a prior's weight is 1 / sigma^2
+            if signal.kind == "tracking":
+                variance = float(np.sum(w * r**2) / (dof_share * np.count_nonzero(used)))
+            # sample k's residual has variance v_k = variance / w_k
+            root = np.where(used, np.sqrt(variance / np.where(used, w, 1.0)), 0.0)
+            vals = slope * root[:, None]
+            items = np.repeat(np.arange(p.count), vals.shape[1])
+            A = sp.coo_matrix(
+                (vals.ravel(), (p.jac_cols, items)), shape=(problem.nlp.n, p.count)
+            ).tocsc()
+            U = kkt.parameter_rows(A)
+            cov += U @ U.T
+        offset += widths[i]
+    return 0.5 * (cov + cov.T)
 
 
 def count_measurements(problem: Problem) -> int:
@@ -314,11 +380,14 @@ class _ReducedKKT:
         return -self.S_inv @ self.X[index].T
 
     def parameter_rows(self, G: sp.csc_matrix) -> np.ndarray:
-        """``[K^-1]_p,: [G; 0]`` for gradient columns ``G`` (free-vector rows)."""
-        Gs = G[: self.p0].toarray()
-        Gp = G[self.p0 :].toarray()
-        rhs = np.vstack([Gs, np.zeros((self.m, Gs.shape[1]))])
-        return self.S_inv @ (Gp - self.B.T @ self.lu.solve(rhs))
+        """``[K^-1]_p,: [G; 0]`` for gradient columns ``G`` (free-vector rows).
+
+        ``K_s`` is symmetric, so ``B^T K_s^-1 = X^T`` with ``X = K_s^-1 B`` already solved:
+        no further solve, and ``G`` stays sparse.
+        """
+        G = sp.csc_matrix(G)
+        Gs, Gp = G[: self.p0], G[self.p0 :].toarray()
+        return self.S_inv @ (Gp - np.asarray((Gs.T @ self.X[: self.p0]).T))
 
 
 def _result(
