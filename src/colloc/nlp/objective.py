@@ -81,13 +81,24 @@ class Tracking(ObjectiveTerm):
         e.g. a measured force that is a free trajectory) -> measured values at the nodes.
     weights : float or mapping, optional
         One weight for all signals, or symbol -> weight. Default 1.
+    integral : bool
+        False (default): the plain sum over the nodes above. True: the trapezoidal
+        integral ``sum_k c_k sum_j w_j (y_j - y_m,jk)^2`` with ``c_k`` the trapezoidal
+        weights of the node times (``h / 2`` at the ends, ``h`` inside on a uniform grid),
+        as tools that write the objective as an integral pose it; on a uniform grid it is
+        the sum times ``h`` but for the two end samples' half weight.
+        :func:`colloc.parameter_uncertainty` reads each sample's weight as ``c_k w_j``.
     """
 
     def __init__(
         self,
         measurements: Mapping[sm.Basic, np.ndarray],
         weights: float | Mapping[sm.Basic, float] | None = None,
+        integral: bool = False,
     ) -> None:
+        if not isinstance(integral, bool):
+            raise TypeError(f"integral: expected True or False, found {integral!r}")
+        self.integral = integral
         if not isinstance(measurements, Mapping) or not measurements:
             raise ValueError(
                 "measurements: expected a non-empty mapping output symbol -> array, "
@@ -145,7 +156,7 @@ class Tracking(ObjectiveTerm):
             expr,
             tuple(ym) + tuple(wm),
             data,
-            np.ones(times.size),
+            trapezoid_weights(times) if self.integral else np.ones(times.size),
             pieces,
             tuple(name_of(y) for y in outputs),
         )
@@ -155,13 +166,43 @@ class Tracking(ObjectiveTerm):
         return "Tracking(" + ",".join(sm.srepr(y) for y in self.measurements) + ")"
 
 
+def trapezoid_weights(times: np.ndarray) -> np.ndarray:
+    """``c_k`` with ``sum_k c_k f(t_k)`` the trapezoidal rule's integral of ``f`` over ``times``.
+
+    Parameters
+    ----------
+    times : ndarray, shape (N,)
+
+    Returns
+    -------
+    ndarray, shape (N,)
+    """
+    h = np.diff(times)
+    factors = np.zeros(times.size)
+    factors[:-1] += h / 2
+    factors[1:] += h / 2
+    return factors
+
+
+def _in_model_terms(expr: sm.Expr, model: Model) -> sm.Expr:
+    """``expr`` with the model's output symbols replaced by their expressions (an output
+    named like a state or input, ``omega: l * omega``, stays the state or input here)."""
+    own = set(model.states) | set(model.inputs)
+    outputs = {y: g for y, g in model.outputs.items() if y != g and y not in own}
+    return expr.xreplace(outputs) if outputs else expr
+
+
 class IntegralCost(ObjectiveTerm):
-    """``integral of L(x, r, p, t) dt`` over the grid, by the trapezoidal rule.
+    """``integral of L(y, x, r, p, t) dt`` over the grid, by the trapezoidal rule.
 
     Parameters
     ----------
     integrand : sympy.Expr
-        ``L`` in the model's states, inputs, parameters and time.
+        ``L`` in the model's outputs (keys of ``model.outputs``, replaced by their
+        expressions), states, inputs, parameters and time: any SymPy expression, e.g. a
+        control effort ``T**2``, a smoothness penalty ``u.diff(t)**2`` (schemes with
+        derivative variables), or a regularisation of parameters toward a prior
+        ``(k - 100)**2`` (constant in time: divide by the duration).
     """
 
     def __init__(self, integrand: sm.Expr) -> None:
@@ -171,11 +212,8 @@ class IntegralCost(ObjectiveTerm):
 
     def node_term(self, model: Model, times: np.ndarray, index: int) -> NodeTerm:
         """See :meth:`ObjectiveTerm.node_term`."""
-        h = np.diff(times)
-        factors = np.zeros(times.size)
-        factors[:-1] += h / 2
-        factors[1:] += h / 2
-        return NodeTerm(self.integrand, (), np.zeros((times.size, 0)), factors)
+        integrand = _in_model_terms(self.integrand, model)
+        return NodeTerm(integrand, (), np.zeros((times.size, 0)), trapezoid_weights(times))
 
     def fingerprint(self) -> str:
         """See :meth:`ObjectiveTerm.fingerprint`."""
@@ -183,12 +221,13 @@ class IntegralCost(ObjectiveTerm):
 
 
 class TerminalCost(ObjectiveTerm):
-    """``Phi(x(t_f), p)``, evaluated at the last node.
+    """``Phi(y(t_f), x(t_f), p)``, evaluated at the last node.
 
     Parameters
     ----------
     expr : sympy.Expr
-        ``Phi`` in the model's states, parameters and time.
+        ``Phi`` in the model's outputs (replaced by their expressions), states, inputs,
+        parameters and time.
     """
 
     def __init__(self, expr: sm.Expr) -> None:
@@ -200,7 +239,7 @@ class TerminalCost(ObjectiveTerm):
         """See :meth:`ObjectiveTerm.node_term`."""
         factors = np.zeros(times.size)
         factors[-1] = 1.0
-        return NodeTerm(self.expr, (), np.zeros((times.size, 0)), factors)
+        return NodeTerm(_in_model_terms(self.expr, model), (), np.zeros((times.size, 0)), factors)
 
     def fingerprint(self) -> str:
         """See :meth:`ObjectiveTerm.fingerprint`."""

@@ -53,6 +53,8 @@ class SignalResiduals:
     residuals : ndarray, shape (N,)
         ``y - d`` at every node, NaN where the sample was left out (weight 0).
     weights : ndarray, shape (N,)
+        Each sample's weight in the objective: the signal's weight times the term's
+        quadrature factor (1 for a plain sum).
     kind : str
         ``"tracking"``, ``"measured input"`` (a problem's ``measured_inputs``) or
         ``"process noise"`` (an estimated disturbance, whose residual is the disturbance
@@ -159,7 +161,7 @@ def tracking_residuals(problem: Problem, z: np.ndarray) -> list[SignalResiduals]
             data = placement.data.copy()
             data[:, factor_col : factor_col + len(terms)] = 0.0
             data[:, factor_col + i] = 1.0
-            weights = data[:, offset + m + j].copy()
+            weights = data[:, offset + m + j] * term.factors
             data[:, offset + m : offset + 2 * m] = 0.0
             data[:, offset + m + j] = 1.0
             v0 = placement.mapped.values(local, data).ravel()

@@ -196,15 +196,15 @@ def _per_output_covariance(
         for j in range(m):
             signal = next(signals)
             data = p.data.copy()
-            data[:, factor_col : factor_col + len(terms)] = 0.0
-            data[:, factor_col + i] = term.factors
-            data[:, offset + m : offset + 2 * m] = 0.0
-            data[:, offset + m + j] = signal.weights
+            # this signal alone, with its weights and its term's quadrature factors
+            others = np.r_[factor_col : factor_col + len(terms), offset + m : offset + 2 * m]
+            others = others[(others != factor_col + i) & (others != offset + m + j)]
+            data[:, others] = 0.0
             # d/dz [w (y - d)^2 - w (y - d - 1)^2] = 2 w grad y: the sample's gradient factor
             g0 = p.mapped.jacobian(local, data)
             data[:, offset + j] += 1.0
             slope = (g0 - p.mapped.jacobian(local, data)).reshape(p.count, -1)
-            w = signal.weights * term.factors
+            w = signal.weights
             used = w > 0
             r = np.where(used, signal.residuals, 0.0)
             variance = 1.0  # a prior's weight is 1 / sigma^2
