@@ -80,6 +80,8 @@ def test_scaled_solve_reaches_the_unscaled_optimum():
     plain = prob.solve(guess)
     scaled = prob.solve(guess, scale={k: 400.0, c: 0.02, x: 0.1, v: 2.0})
     assert plain.success and scaled.success
+    assert scaled.stats["scale"] == {"k": 400.0, "c": 0.02, "x": 0.1, "v": 2.0}
+    assert plain.stats["scale"] == {}
     for p in (k, c):
         assert scaled.parameters[p] == pytest.approx(plain.parameters[p], rel=1e-5, abs=1e-8)
     assert scaled.stats["objective"] == pytest.approx(plain.stats["objective"], rel=1e-7)

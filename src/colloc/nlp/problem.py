@@ -502,7 +502,8 @@ class Problem:
         -------
         Solution
             Parameters that end at one of their bounds are named in
-            ``solution.status.at_bounds`` (and its message).
+            ``solution.status.at_bounds`` (and its message); ``stats["scale"]`` records the
+            scaling used.
 
         Warns
         -----
@@ -534,7 +535,10 @@ class Problem:
             options=ipopt_options,
             variable_scale=None if scale is None else magnitudes,
         )
-        return Solution.from_result(self, result)
+        solution = Solution.from_result(self, result)
+        # what determined the solve's path, beside IPOPT's options
+        solution.stats["scale"] = {name_of(k): float(v) for k, v in (scale or {}).items()}
+        return solution
 
     def _checked_guess(self, initial_guess: np.ndarray) -> np.ndarray:
         z0 = np.asarray(initial_guess, dtype=float)
