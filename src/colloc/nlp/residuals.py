@@ -137,38 +137,100 @@ def tracking_residuals(problem: Problem, z: np.ndarray) -> list[SignalResiduals]
         In the order of the terms and of their signals.
     """
     placement = problem.nlp.objective_placement
-    terms = problem.node_terms
-    if placement is None or not terms:
+    if placement is None or not problem.node_terms:
         return []
     z = np.asarray(z, dtype=float)
     if z.shape != (problem.nlp.n,):
         raise ValueError(f"z: expected shape ({problem.nlp.n},), found {z.shape}")
-    widths = [t.data.shape[1] for t in terms]
-    base = placement.data.shape[1] - sum(widths) - len(terms) - 1
-    factor_col = base + sum(widths)
     local = placement.gather(z)
-    out = []
-    offset = base
+    terms = problem.node_terms
     kinds = ["tracking"] * len(terms)
     own = (["measured input"] if problem.measured_inputs else []) + (
         ["process noise"] if problem.process_noise else []
     )
     kinds[len(terms) - len(own) :] = own
+    out = []
+    for cols in signal_columns(problem):
+        weights = placement.data[:, cols.weight] * terms[cols.term].factors
+        data = cols.alone(placement.data, weight=1.0, factor=1.0)
+        v0 = placement.mapped.values(local, data).ravel()
+        data[:, cols.measurement] += 1.0
+        v1 = placement.mapped.values(local, data).ravel()
+        r = 0.5 * (v0 - v1 + 1.0)
+        out.append(
+            SignalResiduals(
+                cols.name, cols.term, np.where(weights > 0, r, np.nan), weights, kinds[cols.term]
+            )
+        )
+    return out
+
+
+@dataclass(frozen=True)
+class SignalColumns:
+    """Where one signal of a least-squares term sits in the objective placement's data.
+
+    Attributes
+    ----------
+    term : int
+        Index of the term in ``problem.node_terms``.
+    name : str
+    measurement, weight, factor : int
+        Columns of its measurements, its weights and its term's quadrature factors.
+    switches : ndarray
+        Every term's factor column and this term's weight columns: zeroing them and
+        restoring ``weight`` and ``factor`` leaves this signal alone in the objective.
+    """
+
+    term: int
+    name: str
+    measurement: int
+    weight: int
+    factor: int
+    switches: np.ndarray
+
+    def alone(
+        self, data: np.ndarray, weight: float | None = None, factor: float | None = None
+    ) -> np.ndarray:
+        """A copy of ``data`` in which only this signal counts, with its own weights and
+        factors or the constants given."""
+        out = data.copy()
+        out[:, self.switches] = 0.0
+        out[:, self.weight] = data[:, self.weight] if weight is None else weight
+        out[:, self.factor] = data[:, self.factor] if factor is None else factor
+        return out
+
+
+def signal_columns(problem: Problem) -> list[SignalColumns]:
+    """The columns of every signal of every least-squares term, in the order of
+    :func:`tracking_residuals`.
+
+    The objective placement's data hold the node data, then each term's data (a tracking
+    term of ``m`` signals: ``m`` measurement then ``m`` weight columns), then one factor
+    column per term, then the Gauss-Newton switch.
+
+    Parameters
+    ----------
+    problem : Problem
+
+    Returns
+    -------
+    list of SignalColumns
+    """
+    placement = problem.nlp.objective_placement
+    terms = problem.node_terms
+    if placement is None or not terms:
+        return []
+    widths = [t.data.shape[1] for t in terms]
+    offset = placement.data.shape[1] - sum(widths) - len(terms) - 1
+    factors = offset + sum(widths) + np.arange(len(terms))
+    out = []
     for i, term in enumerate(terms):
         m = len(term.signals)
-        kind = kinds[i]
-        for j, name in enumerate(term.signals):
-            data = placement.data.copy()
-            data[:, factor_col : factor_col + len(terms)] = 0.0
-            data[:, factor_col + i] = 1.0
-            weights = data[:, offset + m + j] * term.factors
-            data[:, offset + m : offset + 2 * m] = 0.0
-            data[:, offset + m + j] = 1.0
-            v0 = placement.mapped.values(local, data).ravel()
-            data[:, offset + j] += 1.0
-            v1 = placement.mapped.values(local, data).ravel()
-            r = 0.5 * (v0 - v1 + 1.0)
-            out.append(SignalResiduals(name, i, np.where(weights > 0, r, np.nan), weights, kind))
+        switches = np.r_[factors, offset + m : offset + 2 * m]
+        out += [
+            SignalColumns(i, name, offset + j, offset + m + j, int(factors[i]), switches)
+            for j, name in enumerate(term.signals)
+        ]
         offset += widths[i]
     return out
 

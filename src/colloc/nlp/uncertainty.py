@@ -26,7 +26,7 @@ import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 import sympy as sm
 
-from colloc.nlp.residuals import tracking_residuals
+from colloc.nlp.residuals import signal_columns, tracking_residuals
 
 if TYPE_CHECKING:
     from colloc.nlp.problem import Problem
@@ -182,44 +182,32 @@ def _per_output_covariance(
     variance per unit weight from its own residuals (priors: their given variance)."""
     p = problem.nlp.objective_placement
     assert p is not None  # parameter_uncertainty needs a tracking objective
-    terms = problem.node_terms
-    widths = [t.data.shape[1] for t in terms]
-    base = p.data.shape[1] - sum(widths) - len(terms) - 1
-    factor_col = base + sum(widths)
     local = p.gather(z)
     q = len(problem.partition.unknown_parameters)
     cov = np.zeros((q, q))
-    signals = iter(tracking_residuals(problem, z))
-    offset = base
-    for i, term in enumerate(terms):
-        m = len(term.signals)
-        for j in range(m):
-            signal = next(signals)
-            data = p.data.copy()
-            # this signal alone, with its weights and its term's quadrature factors
-            others = np.r_[factor_col : factor_col + len(terms), offset + m : offset + 2 * m]
-            others = others[(others != factor_col + i) & (others != offset + m + j)]
-            data[:, others] = 0.0
-            # d/dz [w (y - d)^2 - w (y - d - 1)^2] = 2 w grad y: the sample's gradient factor
-            g0 = p.mapped.jacobian(local, data)
-            data[:, offset + j] += 1.0
-            slope = (g0 - p.mapped.jacobian(local, data)).reshape(p.count, -1)
-            w = signal.weights
-            used = w > 0
-            r = np.where(used, signal.residuals, 0.0)
-            variance = 1.0  # a prior's weight is 1 / sigma^2
-            if signal.kind == "tracking":
-                variance = float(np.sum(w * r**2) / (dof_share * np.count_nonzero(used)))
-            # sample k's residual has variance v_k = variance / w_k
-            root = np.where(used, np.sqrt(variance / np.where(used, w, 1.0)), 0.0)
-            vals = slope * root[:, None]
-            items = np.repeat(np.arange(p.count), vals.shape[1])
-            A = sp.coo_matrix(
-                (vals.ravel(), (p.jac_cols, items)), shape=(problem.nlp.n, p.count)
-            ).tocsc()
-            U = kkt.parameter_rows(A)
-            cov += U @ U.T
-        offset += widths[i]
+    signals = tracking_residuals(problem, z)
+    for cols, signal in zip(signal_columns(problem), signals, strict=True):
+        # this signal alone, with its weights and its term's quadrature factors;
+        # d/dz [w (y - d)^2 - w (y - d - 1)^2] = 2 w grad y: the sample's gradient factor
+        data = cols.alone(p.data)
+        g0 = p.mapped.jacobian(local, data)
+        data[:, cols.measurement] += 1.0
+        slope = (g0 - p.mapped.jacobian(local, data)).reshape(p.count, -1)
+        w = signal.weights
+        used = w > 0
+        r = np.where(used, signal.residuals, 0.0)
+        variance = 1.0  # a prior's weight is 1 / sigma^2
+        if signal.kind == "tracking":
+            variance = float(np.sum(w * r**2) / (dof_share * np.count_nonzero(used)))
+        # sample k's residual has variance v_k = variance / w_k
+        root = np.where(used, np.sqrt(variance / np.where(used, w, 1.0)), 0.0)
+        vals = slope * root[:, None]
+        items = np.repeat(np.arange(p.count), vals.shape[1])
+        A = sp.coo_matrix(
+            (vals.ravel(), (p.jac_cols, items)), shape=(problem.nlp.n, p.count)
+        ).tocsc()
+        U = kkt.parameter_rows(A)
+        cov += U @ U.T
     return 0.5 * (cov + cov.T)
 
 
@@ -351,20 +339,20 @@ class _ReducedKKT:
         Hss, Hsp, Hpp = H[:p0, :p0], H[:p0, p0:], H[p0:, p0:].toarray()
         Cs, Cp = C[:, :p0], C[:, p0:]
         Ks = sp.bmat([[Hss, Cs.T], [Cs, None]], format="csc")
-        self.p0, self.m = p0, m
-        self.B = sp.vstack([Hsp, Cp]).toarray()
+        self.p0 = p0
+        B = sp.vstack([Hsp, Cp]).toarray()
         try:
-            self.lu = spla.splu(Ks)
+            lu = spla.splu(Ks)
         except RuntimeError as exc:
             raise ValueError(
                 "the KKT matrix at the solution is singular: the states are not determined by "
                 "the data and the dynamics"
             ) from exc
-        self.X = self.lu.solve(self.B)
-        S = Hpp - self.B.T @ self.X
-        self.S = 0.5 * (S + S.T)
+        # only X = K_s^-1 B is kept: the factors of K_s are freed with this frame
+        self.X = lu.solve(B)
+        S = Hpp - B.T @ self.X
         try:
-            self.S_inv = np.linalg.inv(self.S)
+            self.S_inv = np.linalg.inv(0.5 * (S + S.T))
         except np.linalg.LinAlgError as exc:
             raise ValueError(
                 "the reduced Hessian of the parameters is singular: some unknown parameters "
