@@ -5,6 +5,7 @@ from __future__ import annotations
 import time
 import warnings
 from collections.abc import Callable, Mapping, Sequence
+from dataclasses import replace
 from typing import Any
 
 import numpy as np
@@ -34,8 +35,9 @@ from colloc.nlp.spec import (
 )
 from colloc.nlp.templates import Partition
 from colloc.solve.gauss_newton import ChainStructure, GaussNewtonOptions, solve_gauss_newton
-from colloc.solve.ipopt import solve_nlp
+from colloc.solve.ipopt import STALL_SECONDS, solve_nlp
 from colloc.solve.result import SolveResult
+from colloc.solve.watchdog import SolverStalled
 from colloc.transcription.base import Scheme, TimeGrid
 from colloc.transcription.interpolation import Interpolation
 from colloc.transcription.midpoint import Midpoint
@@ -471,6 +473,7 @@ class Problem:
         progress: Callable[[dict[str, float]], None] | None = None,
         log_path: str | None = None,
         scale: Mapping[sm.Basic, Any] | None = None,
+        stall_seconds: float | None = STALL_SECONDS,
         **ipopt_options: Any,
     ) -> Solution:
         """Solve with IPOPT (MUMPS).
@@ -492,6 +495,13 @@ class Problem:
             solves for ``value / magnitude``, so that gains of 1e3 and of 1e-1 take steps
             and barrier terms on one scale (IPOPT's own scaling acts on the objective and
             constraints only). Unscaled by default; the solution is the same problem's.
+        stall_seconds : float or None
+            Watchdog (default 60 s): IPOPT runs in a forked child process that is stopped
+            when it finishes no iteration for this long (or ten times its slowest one),
+            since nothing else can stop it inside one linear-solver call. A stopped
+            exact or Gauss-Newton solve is solved again from ``initial_guess`` with
+            ``hessian="limited-memory"``, and ``solution.status.notes`` says so. None
+            solves in this process, unwatched.
         **ipopt_options
             Passed to IPOPT (e.g. ``tol=1e-8``, ``max_iter=500``), over colloc's defaults
             :data:`colloc.solve.ipopt.DEFAULT_OPTIONS`: ``tol=1e-8``, ``max_iter=3000``,
@@ -504,6 +514,11 @@ class Problem:
             Parameters that end at one of their bounds are named in
             ``solution.status.at_bounds`` (and its message); ``stats["scale"]`` records the
             scaling used.
+
+        Raises
+        ------
+        SolverStalled
+            When the limited-memory solve was stopped by the watchdog too.
 
         Warns
         -----
@@ -524,17 +539,33 @@ class Problem:
                 UserWarning,
                 stacklevel=2,
             )
-        result: SolveResult = solve_nlp(
-            self.nlp,
-            z0,
-            lo,
-            hi,
-            hessian=hessian,
-            progress=progress,
-            log_path=log_path,
-            options=ipopt_options,
-            variable_scale=None if scale is None else magnitudes,
-        )
+
+        def run(approximation: str) -> SolveResult:
+            return solve_nlp(
+                self.nlp,
+                z0,
+                lo,
+                hi,
+                hessian=approximation,
+                progress=progress,
+                log_path=log_path,
+                options=ipopt_options,
+                variable_scale=None if scale is None else magnitudes,
+                stall_seconds=stall_seconds,
+            )
+
+        try:
+            result = run(hessian)
+        except SolverStalled as stalled:
+            if hessian == "limited-memory":
+                raise
+            result = run("limited-memory")
+            note = (
+                f"the {hessian}-Hessian solve was stopped by the watchdog after "
+                f"{stalled.iterations} iterations (no iteration for {stalled.seconds:.0f} s); "
+                "this is the limited-memory solve from the same initial guess"
+            )
+            result.status = replace(result.status, notes=result.status.notes + (note,))
         solution = Solution.from_result(self, result)
         # what determined the solve's path, beside IPOPT's options
         solution.stats["scale"] = {name_of(k): float(v) for k, v in (scale or {}).items()}

@@ -4,12 +4,14 @@ from colloc.solve.gauss_newton import ChainStructure, GaussNewtonOptions, solve_
 from colloc.solve.ipopt import solve_nlp
 from colloc.solve.result import SolveResult
 from colloc.solve.status import SolveStatus, status_from_code
+from colloc.solve.watchdog import SolverStalled
 
 __all__ = [
     "ChainStructure",
     "GaussNewtonOptions",
     "SolveResult",
     "SolveStatus",
+    "SolverStalled",
     "solve_gauss_newton",
     "solve_nlp",
     "status_from_code",

@@ -20,8 +20,12 @@ from colloc.solve.ipopt_capi import CProblem
 from colloc.solve.result import NLP, SolveResult
 from colloc.solve.scaling import ScaledNLP
 from colloc.solve.status import status_from_code
+from colloc.solve.watchdog import run_watched, watch_available
 
 HESSIAN_CHOICES = ("exact", "limited-memory", "gauss-newton")
+
+#: Default watchdog limit: no solve sits longer than this without finishing an iteration.
+STALL_SECONDS = 60.0
 
 DEFAULT_OPTIONS: dict[str, Any] = {
     "tol": 1e-8,
@@ -37,7 +41,7 @@ class _Callbacks:
     def __init__(
         self,
         nlp: NLP,
-        progress: Callable[[dict[str, float]], None] | None,
+        progress: Callable[[dict[str, float]], object] | None,
         gauss_newton: bool = False,
     ) -> None:
         self.nlp = nlp
@@ -96,10 +100,11 @@ def solve_nlp(
     upper: np.ndarray,
     *,
     hessian: str = "exact",
-    progress: Callable[[dict[str, float]], None] | None = None,
+    progress: Callable[[dict[str, float]], object] | None = None,
     log_path: str | os.PathLike[str] | None = None,
     options: Mapping[str, Any] | None = None,
     variable_scale: np.ndarray | None = None,
+    stall_seconds: float | None = STALL_SECONDS,
 ) -> SolveResult:
     """Solve ``min f(z) s.t. g(z) = 0, lower <= z <= upper`` with IPOPT.
 
@@ -119,13 +124,54 @@ def solve_nlp(
     variable_scale : ndarray, optional
         Typical magnitude of each variable (positive): IPOPT then works in ``z / scale``
         (see :mod:`colloc.solve.scaling`). The result is in ``z``.
+    stall_seconds : float or None
+        Watchdog: the solve runs in a forked child that is stopped when it reports no
+        iteration for this long (or ten times its slowest iteration, if longer), since
+        nothing stops IPOPT inside one linear-solver call (:mod:`colloc.solve.watchdog`).
+        None, or where ``fork`` is unavailable or in a daemonic process, solves in this
+        process, unwatched.
 
     Returns
     -------
     SolveResult
+        ``options["watchdog_seconds"]`` records the watchdog's limit (None: unwatched).
+
+    Raises
+    ------
+    SolverStalled
+        When the watchdog stopped the solve.
     """
     if hessian not in HESSIAN_CHOICES:
         raise ValueError(f"hessian: expected one of {HESSIAN_CHOICES}, found {hessian!r}")
+    if stall_seconds is not None and not stall_seconds > 0:
+        raise ValueError(
+            f"stall_seconds: expected a positive number or None, found {stall_seconds!r}"
+        )
+
+    def task(report: Callable[[dict[str, float]], object] | None) -> SolveResult:
+        return _solve(nlp, x0, lower, upper, hessian, report, log_path, options, variable_scale)
+
+    if stall_seconds is None or not watch_available():
+        result = task(progress)
+        result.options["watchdog_seconds"] = None
+        return result
+    result = run_watched(task, progress, float(stall_seconds))
+    result.options["watchdog_seconds"] = float(stall_seconds)
+    return result
+
+
+def _solve(
+    nlp: NLP,
+    x0: np.ndarray,
+    lower: np.ndarray,
+    upper: np.ndarray,
+    hessian: str,
+    progress: Callable[[dict[str, float]], object] | None,
+    log_path: str | os.PathLike[str] | None,
+    options: Mapping[str, Any] | None,
+    variable_scale: np.ndarray | None,
+) -> SolveResult:
+    """One IPOPT solve in this process (see :func:`solve_nlp`)."""
     approximation = "limited-memory" if hessian == "limited-memory" else "exact"
     opts = {**DEFAULT_OPTIONS, "hessian_approximation": approximation, **dict(options or {})}
     scale = np.ones(nlp.n) if variable_scale is None else np.asarray(variable_scale, float)

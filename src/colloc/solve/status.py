@@ -28,6 +28,7 @@ class SolveStatus:
     success: bool
     hint: str
     at_bounds: tuple[str, ...] = ()
+    notes: tuple[str, ...] = ()
 
     def __str__(self) -> str:
         text = f"{self.name} ({self.code})"
@@ -37,6 +38,8 @@ class SolveStatus:
                 f"; parameters at their bounds: {list(self.at_bounds)} (the optimum is the "
                 "bound's, not the data's: widen the bounds or check the model)"
             )
+        for note in self.notes:
+            text += f"; {note}"
         return text
 
 
