@@ -74,6 +74,11 @@ class Model:
         residual holds their slot symbols and weights, ``parameters`` their points.
     t : sympy.Symbol
         Time.
+    initial_constraints : tuple of sympy.Expr
+        Expressions in the states and parameters that equal zero at the first time of a
+        problem: the position- and velocity-level constraints that the residual holds only
+        differentiated (:meth:`from_lagrange` with constraints). A :class:`colloc.Problem`
+        imposes them at its first node.
     """
 
     residual: sm.Matrix
@@ -86,12 +91,19 @@ class Model:
     controller_parameters: tuple[sm.Symbol, ...] = ()
     t: sm.Symbol = TIME
     schedules: tuple[ParameterSchedule, ...] = ()
+    initial_constraints: tuple[sm.Expr, ...] = ()
 
     # ------------------------------------------------------------------ derived views
     @property
     def state_derivatives(self) -> tuple[sm.Basic, ...]:
         """``x'(t)`` in the order of :attr:`states`."""
         return tuple(x.diff(self.t) for x in self.states)
+
+    @property
+    def algebraic_states(self) -> tuple[sm.Basic, ...]:
+        """States whose derivative appears in no equation (e.g. Lagrange multipliers)."""
+        derivatives = self.residual.atoms(sm.Derivative)
+        return tuple(x for x in self.states if x.diff(self.t) not in derivatives)
 
     @property
     def inputs(self) -> tuple[sm.Basic, ...]:
@@ -286,7 +298,14 @@ class Model:
 
         New speed states ``u_q(t) = q'(t)`` make the system first order: states are
         ``[q, u]`` and, with constraints, the Lagrange multipliers ``lam`` as algebraic
-        states, closed by the velocity-level constraint equations.
+        states, closed by the constraints differentiated to the acceleration level
+        (``d/dt`` of SymPy's velocity-level ``coneqs``: an index-1 system, whose multipliers
+        every collocation scheme determines). The position- and velocity-level constraints
+        become the model's :attr:`initial_constraints`, which a :class:`colloc.Problem`
+        imposes at its first node, so they hold along the motion to the scheme's accuracy;
+        their constants (a rod length) join the parameters. (Closed by the velocity-level
+        equations instead, the midpoint rule leaves the speeds an alternating mode that
+        the multipliers absorb.)
 
         Parameters
         ----------
@@ -323,9 +342,14 @@ class Model:
         # eom already holds M q'' - f with the multiplier terms when constraints exist.
         dyn = sm.Matrix(lagrange.eom).xreplace(to_first_order)
         rows = kin.col_join(dyn)
+        at_start: list[sm.Expr] = []
         if lam:
-            rows = rows.col_join(sm.Matrix(lagrange.coneqs).xreplace(to_first_order))
-        return cls.from_equations(
+            velocity_level = sm.Matrix(lagrange.coneqs)
+            rows = rows.col_join(velocity_level.diff(t).xreplace(to_first_order))
+            # SymPy keeps the position-level constraints only privately.
+            position_level = sm.Matrix(getattr(lagrange, "_hol_coneqs", sm.Matrix()))
+            at_start = [*position_level, *velocity_level.xreplace(to_first_order)]
+        model = cls.from_equations(
             rows,
             q + u + lam,
             controlled_inputs=controlled_inputs,
@@ -335,6 +359,23 @@ class Model:
             parameters=parameters,
             t=t,
             input_derivatives=input_derivatives,
+        )
+        if not at_start:
+            return model
+        constants = set().union(*(e.free_symbols for e in at_start)) - {t}
+        missing = constants - set(model.parameters)
+        if parameters is not None and missing:
+            raise_if_any(
+                [
+                    f"parameters: the constraints hold {name_of(c)}, which is not listed "
+                    f"(listed: {[name_of(p) for p in model.parameters]})"
+                    for c in sort_by_name(missing)
+                ]
+            )
+        return replace(
+            model,
+            parameters=sort_by_name(set(model.parameters) | constants),  # type: ignore[arg-type]
+            initial_constraints=tuple(at_start),
         )
 
     # ------------------------------------------------------------------ operations
@@ -367,6 +408,7 @@ class Model:
         raise_if_any(problems)
         residual = self.residual.xreplace(law)
         outputs = {y: g.xreplace(law) for y, g in self.outputs.items()}
+        at_start = tuple(e.xreplace(law) for e in self.initial_constraints)
         remaining = tuple(r for r in self.controlled_inputs if r not in law)
         schedules = tuple(getattr(controller, "schedules", ()))
         phases = tuple(dict.fromkeys(s.phase for s in schedules if s.phase not in self.inputs))
@@ -380,6 +422,7 @@ class Model:
             parameters=new_params,  # type: ignore[arg-type]
             controller_parameters=self.controller_parameters + tuple(controller.parameters),
             schedules=self.schedules + schedules,
+            initial_constraints=at_start,
         )
 
     def with_disturbances(self, disturbances: Mapping[int | sm.Basic, sm.Basic]) -> Model:
@@ -458,6 +501,7 @@ class Model:
             self,
             residual=residual,
             outputs=outputs,
+            initial_constraints=tuple(e.xreplace(on_inputs) for e in self.initial_constraints),
             unknown_inputs=self.unknown_inputs + tuple(disturbances.values()),
         )
 

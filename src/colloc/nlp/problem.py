@@ -31,6 +31,7 @@ from colloc.nlp.spec import (
     check_process_noise,
     check_schedules,
     check_trajectories,
+    model_instance_constraints,
     parse_instance_constraints,
 )
 from colloc.nlp.templates import Partition
@@ -73,7 +74,11 @@ class Problem:
         State, free input or unknown parameter -> (lower, upper).
     instance_constraints : sequence of sympy.Expr, optional
         Expressions equal to zero in ``x(t_k)`` values (e.g. ``q.func(0.0) - 1``, or
-        ``q.func(tf) - q.func(0.0)`` for periodicity) and parameters.
+        ``q.func(tf) - q.func(0.0)`` for periodicity) and parameters. The model's own
+        :attr:`~colloc.Model.initial_constraints` are added at the first node; with a
+        scheme without node equations (midpoint, backward Euler), so is a zero second
+        difference over the first three nodes of each algebraic state (a Lagrange
+        multiplier), which the interval defects see only through neighbouring nodes.
     cache : bool, str or Path
         Cache built functions on disk (default directory, or the one given); False: never.
     process_noise : mapping, optional
@@ -154,7 +159,8 @@ class Problem:
         node_funcs = list(model.states) + list(free_inputs)
         self.bounds = check_bounds(bounds or {}, node_funcs + list(unknown), problems)
         ic_exprs, ic_vars, ic_locs = parse_instance_constraints(
-            list(instance_constraints or []),
+            list(instance_constraints or [])
+            + model_instance_constraints(model, scheme.node_derivatives, self.grid.times),
             node_funcs,
             model.parameters,
             self.grid.times,

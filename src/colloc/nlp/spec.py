@@ -163,6 +163,46 @@ def check_bounds(
     return out
 
 
+def model_instance_constraints(
+    model: Model, node_residual: bool, times: np.ndarray
+) -> list[sm.Expr]:
+    """What the model asks of particular nodes, as instance constraints.
+
+    Its :attr:`~colloc.Model.initial_constraints` at the first node; and, for a scheme
+    without a residual at each node (``node_residual`` False: the interval defects see a
+    state without derivative only through neighbouring nodes, e.g. as their mean), a zero
+    second difference of each such state over the first three nodes (equal values with two
+    nodes), which fixes the one alternating mode those defects leave free.
+
+    Parameters
+    ----------
+    model : Model
+    node_residual : bool
+        Whether the scheme holds the residual at every node (schemes with derivative
+        variables).
+    times : ndarray
+        The grid's node times.
+
+    Returns
+    -------
+    list of sympy.Expr
+        In ``x(t_k)`` values, as :func:`parse_instance_constraints` reads them.
+    """
+
+    def at(k: int) -> dict[sm.Basic, sm.Basic]:
+        tk = sm.Float(float(times[k]))
+        return {x: x.func(tk) for x in model.states}
+
+    out = [sm.sympify(e).xreplace(at(0)) for e in model.initial_constraints]
+    if not node_residual:
+        for x in model.algebraic_states:
+            if times.size >= 3:
+                out.append(x.xreplace(at(0)) - 2 * x.xreplace(at(1)) + x.xreplace(at(2)))
+            else:
+                out.append(x.xreplace(at(0)) - x.xreplace(at(1)))
+    return out
+
+
 def parse_instance_constraints(
     exprs: Sequence[sm.Expr],
     node_functions: Sequence[sm.Basic],
