@@ -1,7 +1,9 @@
-"""What a solve says about bounds: a parameter that ends at one, a start outside them.
+"""What a solve says about its answer: a parameter at a bound, a start outside them, a misfit.
 
 Reference: ``x' = -k x`` with ``x(0) = 1`` tracked from ``exp(-2 t)``; its least-squares
-``k`` is 2, so a bound ``k <= 1`` must end at 1 and be named.
+``k`` is 2, so a bound ``k <= 1`` must end at 1 and be named. With ``k`` held at 1 on
+noisy data the residuals carry the misfit ``exp(-t) - exp(-2 t)`` (slow), with ``k`` free
+only the white noise.
 """
 
 from __future__ import annotations
@@ -49,3 +51,29 @@ def test_a_start_outside_the_bounds_is_reported():
     problem = decay({k: (0.0, 1.0)})
     with pytest.warns(UserWarning, match=r"1 value\(s\) outside the bounds, first .*k.* = 3"):
         problem.solve(problem.initial_guess({x: np.exp(-TIMES)}, {k: 3.0}), print_level=0)
+
+
+def noisy_decay(seed):
+    rng = np.random.default_rng(seed)
+    return np.exp(-2.0 * TIMES) + rng.normal(0.0, 0.01, TIMES.size)
+
+
+def test_a_fit_that_leaves_systematic_residuals_says_so_and_a_good_one_does_not():
+    data = noisy_decay(2)
+    model = Model.from_equations([x.diff(t) + k * x], [x], parameters=[k])
+    free = Problem(model, TIMES, objective=Tracking({x: data}), cache=False)
+    good = free.solve(free.initial_guess({x: data}, {k: 1.0}), print_level=0)
+    assert good.status.notes == ()
+    # the same data with k held at a wrong value: the optimum the solver reports is a
+    # misfit (as a worse local optimum, or a parameter at its bound, would leave)
+    held = Problem(
+        model, TIMES, objective=Tracking({x: data}), known_parameters={k: 1.0}, cache=False
+    )
+    bad = held.solve(held.initial_guess({x: data}, {}), print_level=0)
+    assert bad.success
+    (note,) = bad.status.notes
+    assert "tracking residuals of x are systematic" in note and note in str(bad.status)
+    # the bound case above: the parameter at its bound leaves the same mark
+    bounded = decay({k: (0.0, 1.0)})
+    at_bound = bounded.solve(bounded.initial_guess({x: data}, {k: 0.5}), print_level=0)
+    assert at_bound.status.at_bounds == ("k",) and len(at_bound.status.notes) == 1

@@ -69,12 +69,12 @@ def test_errors_in_the_task_are_raised_here_with_the_childs_traceback():
 
 
 def decay_problem():
-    """``x' = -k x`` tracked on exact data: k = 0.7."""
+    """``x' = -k x`` tracked on noisy data: k = 0.7."""
     xs = dynamicsymbols("x")
     k = sm.Symbol("k")
     model = colloc.Model.from_equations([xs.diff() + k * xs], [xs])
     times = np.linspace(0.0, 3.0, 61)
-    data = np.exp(-0.7 * times)
+    data = np.exp(-0.7 * times) + np.random.default_rng(1).normal(0.0, 0.01, times.size)
     problem = colloc.Problem(model, times, objective=colloc.Tracking({xs: data}))
     return problem, problem.initial_guess({xs: data}, {k: 0.2}), k
 
@@ -85,7 +85,7 @@ def test_a_stalled_exact_solve_is_solved_again_with_the_limited_memory_hessian()
     unwatched = problem.solve(z0, print_level=0, stall_seconds=None)
     assert unwatched.status.notes == ()
     assert unwatched.stats["ipopt_options"]["watchdog_seconds"] is None
-    assert unwatched.parameters[k] == pytest.approx(0.7, rel=1e-3)  # midpoint, exact data
+    assert unwatched.parameters[k] == pytest.approx(0.7, rel=0.05)
 
     exact_hessian = problem.nlp.hessian
     parent = os.getpid()

@@ -37,6 +37,10 @@ CORRELATION_LIMITS = (-0.4, 0.2)
 SIZE_LIMITS = (0.5, 2.0)
 #: Lags of the Ljung-Box test of whiteness.
 LJUNG_BOX_LAGS = 10
+#: Lag-1 autocorrelation of a tracked signal's residuals above which a solution's status says
+#: the fit leaves a systematic misfit (well above :data:`CORRELATION_LIMITS`' 0.2, which only
+#: questions the KKT standard errors).
+SYSTEMATIC_LIMIT = 0.5
 
 
 @dataclass(frozen=True)
@@ -311,6 +315,38 @@ def residual_diagnostics(
                 "for it is wrong"
             )
     return ResidualDiagnostics(tuple(signals), tuple(warnings))
+
+
+def systematic_misfit(problem: Problem, z: np.ndarray) -> list[str]:
+    """Notes for the tracked signals whose residuals at ``z`` are systematic, not noise.
+
+    A fit that stopped at a worse local optimum, or whose model misses a disturbance, leaves
+    slow residuals (lag-1 autocorrelation above :data:`SYSTEMATIC_LIMIT`); white measurement
+    noise leaves none. Noise-free data show the scheme's own error this way.
+
+    Parameters
+    ----------
+    problem : Problem
+    z : ndarray
+
+    Returns
+    -------
+    list of str
+        One note per such signal (empty when none).
+    """
+    notes = []
+    for s in tracking_residuals(problem, z):
+        r = s.residuals[np.isfinite(s.residuals)]
+        if s.kind != "tracking" or r.size < 20:
+            continue
+        lag1 = float(_autocorrelation(r - r.mean(), 1)[0])
+        if lag1 > SYSTEMATIC_LIMIT:
+            notes.append(
+                f"tracking residuals of {s.name} are systematic, not noise (lag-1 "
+                f"autocorrelation {lag1:.2f}): a local optimum (try another start), a "
+                "disturbance the model misses, or noise-free data"
+            )
+    return notes
 
 
 def _autocorrelation(x: np.ndarray, max_lag: int) -> np.ndarray:

@@ -9,6 +9,7 @@ import numpy as np
 import sympy as sm
 
 from colloc.model.symbols import name_of
+from colloc.nlp.residuals import systematic_misfit
 from colloc.solve.status import SolveStatus
 
 if TYPE_CHECKING:
@@ -33,6 +34,11 @@ class Solution:
     unknown_parameters : tuple
         The symbols that were estimated.
     status : SolveStatus
+        The solver's outcome, with what the answer depends on beyond it:
+        ``status.at_bounds`` (parameters that ended at a bound) and ``status.notes`` (a
+        watchdog's fallback; tracked signals whose residuals are systematic, not noise,
+        as a worse local optimum or an unmodelled disturbance leaves them). Both are in
+        ``str(status)`` and ``stats["message"]``.
     stats : dict
         ``iterations``, ``objective``, ``constraint_violation``, ``status``, ``message``,
         ``hint``, ``build_time``, ``solve_time``, ``cache_hit``, ``ipopt_log``, ...
@@ -60,7 +66,11 @@ class Solution:
         params: dict[sm.Symbol, float] = dict(problem.known_parameters)
         est = result.x[lay.parameter_offset :]
         params.update(zip(problem.partition.unknown_parameters, map(float, est), strict=True))
-        status = replace(result.status, at_bounds=_at_bounds(problem, est))
+        status = replace(
+            result.status,
+            at_bounds=_at_bounds(problem, est),
+            notes=result.status.notes + tuple(systematic_misfit(problem, result.x)),
+        )
         stats = {
             "status": result.status.name,
             "status_code": result.status.code,
