@@ -7,8 +7,10 @@ For the 1- and 2-link cart pendulum and three kinds of data:
   (c) plus noise on the measured cart force, a tenth of the force's rms;
 each realisation (seed) is identified twice: by today's method (exact dynamics, the measured
 force taken as exact, KKT standard errors) and by the new one (the noise model's maximum a
-posteriori fit with sandwich standard errors). Per gain: bias, spread, mean reported
-standard error and the fraction of estimates within 2 and 3 standard errors.
+posteriori fit with sandwich standard errors). A third row, "robust", is today's fit with the
+sandwich standard errors (no second solve). Per gain: bias (with its Monte Carlo standard
+error, spread / sqrt(realisations), to read it against), spread, mean reported standard error
+and the fraction of estimates within 2 and 3 standard errors.
 
 Usage: python benchmarks/uncertainty_calibration.py [--links 1 2] [--cases a b c]
        [--realisations 50] [--duration 30] [--workers 2]
@@ -31,6 +33,8 @@ METHODS = {
     "today": {"noise_model": False, "uncertainty": "kkt"},
     "new": {"noise_model": True, "uncertainty": "sandwich"},
 }
+#: Rows of the summary: the two methods, and today's fit with sandwich standard errors.
+ROWS = (*METHODS, "robust")
 
 
 def noise_levels(num_links: int, duration: float) -> dict[str, float]:
@@ -47,7 +51,8 @@ def noise_levels(num_links: int, duration: float) -> dict[str, float]:
 
 
 def one(task: dict[str, Any]) -> dict[str, Any]:
-    """Both methods on one realisation."""
+    """Both methods on one realisation (and today's fit with sandwich errors)."""
+    from colloc import parameter_uncertainty
     from colloc.identify.pendulum import PendulumSettings, run_pendulum
 
     out: dict[str, Any] = {"seed": task["seed"]}
@@ -72,6 +77,14 @@ def one(task: dict[str, Any]) -> dict[str, Any]:
             "warnings": len(run.diagnostics.warnings) if run.diagnostics else 0,
         }
         out["known"] = run.known_gains.tolist()
+        if name == "today":
+            t1 = time.perf_counter()
+            robust = parameter_uncertainty(run.problem, run.solution, method="sandwich")
+            out["robust"] = {
+                **out["today"],
+                "std_errors": [robust.standard_errors[k] for k in run.gain_symbols],
+                "seconds": out["today"]["seconds"] + time.perf_counter() - t1,
+            }
     return out
 
 
@@ -90,6 +103,10 @@ def summarise(runs: list[dict[str, Any]], method: str) -> dict[str, Any]:
         "bias": bias.tolist(),
         "relative_bias": (bias / np.abs(known)).tolist(),
         "mean_abs_relative_bias": float(np.mean(np.abs(bias / known))),
+        "bias_monte_carlo_se": (err.std(axis=0, ddof=1) / np.sqrt(len(ok))).tolist(),
+        "mean_abs_bias_in_monte_carlo_se": float(
+            np.mean(np.abs(bias) / (err.std(axis=0, ddof=1) / np.sqrt(len(ok))))
+        ),
         "spread": err.std(axis=0, ddof=1).tolist(),
         "mean_std_error": se.mean(axis=0).tolist(),
         "within_2_se": float(np.mean(z <= 2)),
@@ -101,7 +118,7 @@ def summarise(runs: list[dict[str, Any]], method: str) -> dict[str, Any]:
 
 
 def figure(results: list[dict[str, Any]], path: Path) -> None:
-    """Coverage within 3 SE and mean |relative bias| per case, today against new."""
+    """Coverage within 3 SE and mean |relative bias| per case, for each row."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -110,12 +127,14 @@ def figure(results: list[dict[str, Any]], path: Path) -> None:
     labels = [f"{r['links']}-link ({r['case']})" for r in results]
     x = np.arange(len(results))
     fig, (a1, a2) = plt.subplots(1, 2, figsize=(11, 4))
-    for i, method in enumerate(METHODS):
-        a1.bar(x + 0.4 * i - 0.2, [r[method]["within_3_se"] for r in results], 0.4, label=method)
+    width = 0.8 / len(ROWS)
+    for i, method in enumerate(ROWS):
+        shift = width * (i - (len(ROWS) - 1) / 2)
+        a1.bar(x + shift, [r[method]["within_3_se"] for r in results], width, label=method)
         a2.bar(
-            x + 0.4 * i - 0.2,
+            x + shift,
             [100 * r[method]["mean_abs_relative_bias"] for r in results],
-            0.4,
+            width,
             label=method,
         )
     a1.axhline(0.9, color="k", lw=0.8, ls="--")
@@ -175,17 +194,22 @@ def main() -> None:
                 "input_noise": fn,
                 "duration": args.duration,
                 "wall_seconds": time.perf_counter() - t0,
-                "today": summarise(runs, "today"),
-                "new": summarise(runs, "new"),
+                **{row: summarise(runs, row) for row in ROWS},
                 "max_rel_difference_new_vs_today": same,
                 "runs": runs,
             }
             results.append(record)
             brief = {k: v for k, v in record.items() if k != "runs"}
-            for m in METHODS:
+            for m in ROWS:
                 brief[m] = {
                     k: brief[m][k]
-                    for k in ("mean_abs_relative_bias", "within_2_se", "within_3_se", "failed")
+                    for k in (
+                        "mean_abs_relative_bias",
+                        "mean_abs_bias_in_monte_carlo_se",
+                        "within_2_se",
+                        "within_3_se",
+                        "failed",
+                    )
                 }
             print(json.dumps(brief), flush=True)
             args.out.parent.mkdir(parents=True, exist_ok=True)
