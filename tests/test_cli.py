@@ -11,6 +11,7 @@ import contextlib
 import io
 import json
 import re
+import sqlite3
 import xml.etree.ElementTree as ET
 
 import numpy as np
@@ -183,6 +184,30 @@ def test_runs_list_and_show(stored, capsys):
     assert out.startswith(f"run {run_id}")
     for name in GAIN_NAMES:
         assert name in out
+
+
+def test_db_is_accepted_after_the_runs_subcommand_as_the_readme_writes_it(stored, capsys):
+    before = run_cli(["runs", "--db", stored["db"], "list"], capsys)
+    after = run_cli(["runs", "list", "--db", stored["db"]], capsys)
+    assert after == before and after[0] == 0
+    code, out, _ = run_cli(["runs", "list", "--db", stored["db"], "--kind", "bogus"], capsys)
+    assert code == 0 and "no runs of kind 'bogus' stored (kinds stored: ['pendulum'])" in out
+
+
+def test_reading_commands_create_nothing(tmp_path, capsys):
+    typo = tmp_path / "typo.db"
+    code, out, err = run_cli(["runs", "list", "--db", f"sqlite:///{typo}"], capsys)
+    assert code == 2 and "there is no database at" in err and str(typo) in err
+    assert not typo.exists()
+    other = tmp_path / "other.db"
+    with sqlite3.connect(other) as connection:
+        connection.execute("CREATE TABLE notes (text)")
+    for command in (["list"], ["show", "abcdef"], ["delete", "abcdef"]):
+        code, out, err = run_cli(["runs", "--db", f"sqlite:///{other}", *command], capsys)
+        assert code == 2 and "holds no colloc runs" in err and "found ['notes']" in err
+    with sqlite3.connect(other) as connection:
+        tables = connection.execute("SELECT name FROM sqlite_master").fetchall()
+    assert tables == [("notes",)]
 
 
 def test_runs_show_of_an_unknown_id_exits_2(stored, capsys):

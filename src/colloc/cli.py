@@ -347,15 +347,18 @@ def build_parser() -> argparse.ArgumentParser:
     r = sub.add_parser("runs", help="list, show, export or delete stored runs")
     r.add_argument("--db", default=DEFAULT_URL, help="results database URL (default %(default)s)")
     rs = r.add_subparsers(dest="runs_command", required=True)
-    lst = rs.add_parser("list", help="list stored runs")
+    # --db is accepted after the subcommand too (colloc runs list --db URL)
+    after = argparse.ArgumentParser(add_help=False)
+    after.add_argument("--db", default=argparse.SUPPRESS, help="results database URL")
+    lst = rs.add_parser("list", help="list stored runs", parents=[after])
     lst.add_argument("--kind", default=None)
-    show = rs.add_parser("show", help="show one run (an id or a unique prefix)")
+    show = rs.add_parser("show", help="show one run (an id or a unique prefix)", parents=[after])
     show.add_argument("run_id")
-    exp = rs.add_parser("export", help="export a run's arrays and parameters")
+    exp = rs.add_parser("export", help="export a run's arrays and parameters", parents=[after])
     exp.add_argument("run_id")
     exp.add_argument("directory", type=Path)
     exp.add_argument("--format", default="csv", help="csv or npz (default %(default)s)")
-    dele = rs.add_parser("delete", help="delete a run")
+    dele = rs.add_parser("delete", help="delete a run", parents=[after])
     dele.add_argument("run_id")
     return parser
 
@@ -439,14 +442,18 @@ def _pendulum(args: argparse.Namespace) -> int:
 def _runs(args: argparse.Namespace) -> int:
     from colloc.store import RunStore
 
-    store = RunStore(args.db)
+    store = RunStore(args.db, create=False)  # reading (or deleting) creates nothing
     if args.runs_command == "list":
         frame = store.list(kind=args.kind)
-        print(
-            "no runs stored"
-            if frame.empty
-            else frame.dropna(axis=1, how="all").to_string(index=False)
-        )
+        if frame.empty and args.kind is not None:
+            kinds = sorted(set(store.list()["kind"]))
+            print(f"no runs of kind {args.kind!r} stored (kinds stored: {kinds})")
+        else:
+            print(
+                "no runs stored"
+                if frame.empty
+                else frame.dropna(axis=1, how="all").to_string(index=False)
+            )
     elif args.runs_command == "show":
         print(store.get(args.run_id).summary())
     elif args.runs_command == "export":

@@ -16,7 +16,7 @@ from pathlib import Path
 from typing import Any
 
 import pandas as pd
-from sqlalchemy import Engine, create_engine, event, func, insert, select
+from sqlalchemy import Engine, create_engine, event, func, insert, inspect, select
 from sqlalchemy.engine import make_url
 from sqlalchemy.exc import ArgumentError, IntegrityError, NoSuchModuleError, SQLAlchemyError
 
@@ -39,6 +39,20 @@ DEFAULT_SETTING_COLUMNS = ("num_links", "scheme", "num_nodes", "duration", "samp
 DEFAULT_STATISTIC_COLUMNS = ("success", "iterations", "objective", "solve_time")
 
 
+def _require_existing_file(parsed: Any, url: str) -> None:
+    """For a file-backed SQLite URL, refuse one whose file does not exist (no empty file)."""
+    database = parsed.database
+    if parsed.get_backend_name() != "sqlite" or not database or database == ":memory:":
+        return
+    if database.startswith("file:"):
+        return  # an SQLite URI: its own options decide
+    if not Path(database).is_file():
+        raise StoreURLError(
+            f"url: there is no database at {url!r} (no file {database!r}); nothing was "
+            "created: check the path, or store a run there first"
+        )
+
+
 def _on_sqlite_connect(dbapi_connection: Any, connection_record: Any) -> None:
     # SQLite ignores foreign keys unless asked, and fails at once on a locked file unless
     # given a timeout; parallel batch runs write to the same file.
@@ -57,12 +71,17 @@ class RunStore:
     url : str, optional
         SQLAlchemy database URL, e.g. ``"sqlite:///colloc-runs.db"`` (the default),
         ``"sqlite://"`` (in memory) or ``"postgresql+psycopg://user@host/db"``.
+    create : bool, optional
+        Create the database file and colloc's tables when missing (default). False (for
+        reading, or deleting): refuse a missing SQLite file or a database without colloc's
+        tables, changing nothing.
 
     Raises
     ------
     StoreURLError
         If ``url`` is not a URL, names a backend without an installed driver, or the
-        database cannot be opened or created.
+        database cannot be opened or created (or, with ``create=False``, does not exist or
+        holds no colloc tables).
 
     Examples
     --------
@@ -71,19 +90,26 @@ class RunStore:
     True
     """
 
-    def __init__(self, url: str = DEFAULT_URL) -> None:
+    def __init__(self, url: str = DEFAULT_URL, *, create: bool = True) -> None:
         if not isinstance(url, str):
             raise StoreURLError(f"url: expected a str, found {type(url).__name__}")
         try:
-            make_url(url)
+            parsed = make_url(url)
             self._engine: Engine = create_engine(url)
         except (ArgumentError, NoSuchModuleError, ImportError, ValueError) as error:
             raise StoreURLError(
                 f"url: expected a SQLAlchemy database URL such as {DEFAULT_URL!r}, "
                 f"found {url!r} ({error})"
             ) from error
+        if not create:
+            try:
+                _require_existing_file(parsed, url)
+            except StoreURLError:
+                self._engine.dispose()
+                raise
         event.listen(self._engine, "connect", _on_sqlite_connect)
         self.url = url
+        self.create = create
         try:
             self._prepare_schema()
         except SQLAlchemyError as error:
@@ -98,10 +124,19 @@ class RunStore:
             raise
 
     def _prepare_schema(self) -> None:
-        schema.metadata.create_all(self._engine)
+        if self.create:
+            schema.metadata.create_all(self._engine)
+        else:
+            found = set(inspect(self._engine).get_table_names())
+            missing = sorted(set(schema.metadata.tables) - found)
+            if missing:
+                raise StoreURLError(
+                    f"url: the database at {self.url!r} holds no colloc runs (tables "
+                    f"{missing} are missing; found {sorted(found)}); nothing was changed"
+                )
         with self._engine.begin() as connection:
             versions = connection.execute(select(schema.schema_info.c.version)).scalars().all()
-            if not versions:
+            if not versions and self.create:
                 connection.execute(insert(schema.schema_info).values(version=schema.SCHEMA_VERSION))
             elif versions != [schema.SCHEMA_VERSION]:
                 raise StoreURLError(
