@@ -255,8 +255,14 @@ def test_objective_terms_must_be_objective_objects(model, objective):
             r"measurements of q: expected shape \(5,\) \(one per node\), found \(4,",
         ),
         ({q: np.full(5, np.nan)}, r"measurements of q: every sample is NaN"),
+        (
+            {q: np.array([0.0, 1.0, np.nan, np.inf, -np.inf])},
+            r"measurements of q: 2 infinite value\(s\), first at sample 3; mark a missing "
+            r"sample with NaN",
+        ),
+        ({"q": np.zeros(5)}, r"the key 'q' is a string: key measurements by the output .*q\(t\)"),
     ],
-    ids=["not-an-output", "wrong-length", "all-nan"],
+    ids=["not-an-output", "wrong-length", "all-nan", "infinite", "string-key"],
 )
 def test_tracking_against_the_problem(model, measurements, pattern):
     with pytest.raises(ProblemDefinitionError, match=pattern):

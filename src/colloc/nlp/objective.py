@@ -124,7 +124,13 @@ class Tracking(ObjectiveTerm):
         problems = []
         inputs = set(model.inputs)
         for y, values in self.measurements.items():
-            if y not in model.outputs and y not in inputs:
+            if isinstance(y, str):
+                problems.append(
+                    f"the key {y!r} is a string: key measurements by the output or input "
+                    f"itself, e.g. {y}(t) (outputs: {[name_of(o) for o in model.outputs]}, "
+                    f"inputs: {[name_of(r) for r in model.inputs]})"
+                )
+            elif y not in model.outputs and y not in inputs:
                 problems.append(
                     f"{name_of(y)} is not an output or input of the model (outputs: "
                     f"{[name_of(o) for o in model.outputs]}, inputs: "
@@ -137,6 +143,12 @@ class Tracking(ObjectiveTerm):
                 )
             elif np.all(np.isnan(values)):
                 problems.append(f"measurements of {name_of(y)}: every sample is NaN")
+            elif np.any(np.isinf(values)):
+                bad = np.flatnonzero(np.isinf(values))
+                problems.append(
+                    f"measurements of {name_of(y)}: {bad.size} infinite value(s), first at "
+                    f"sample {int(bad[0])}; mark a missing sample with NaN"
+                )
         if problems:
             raise ValueError("Tracking: " + "; ".join(problems))
         outputs = list(self.measurements)
