@@ -76,7 +76,7 @@ def run_cli(argv, capsys):
         (["-i", "bogus"], r"initial_guess \(-i\): expected one of \[.*'close'.*found 'bogus'"),
         (["--scheme", "bogus"], r"scheme: expected one of \[.*'midpoint'.*found 'bogus'"),
         (["--hessian", "bogus"], r"hessian: expected 'exact' or 'limited-memory'"),
-        (["--noise-std", "-1"], r"noise_std_deg: expected a finite number >= 0, found -1.0"),
+        (["-r", "--noise-std", "-1"], r"noise_std_deg: expected a finite number >= 0, found -1"),
         # Found by these tests: inf gave an OverflowError traceback, and a negative seed
         # failed in numpy after the database was created, without naming the flag.
         (["-s", "inf"], r"sample_rate \(-s\): expected a positive"),
@@ -85,6 +85,10 @@ def run_cli(argv, capsys):
         (["--process-noise", "-1"], r"process_noise: expected a finite number >= 0, found -1.0"),
         (["--input-noise", "nan"], r"input_noise: expected a finite number >= 0, found nan"),
         (["--uncertainty", "bogus"], r"uncertainty: expected one of \['sandwich', 'kkt'\]"),
+        # issue 13: refused only after simulating, about a window the user cannot set
+        (["-d", "0.1"], r"duration \(-d\): 0.1 s at 100 Hz gives 11 samples, fewer than the 15 "),
+        # issue 13: silently ignored
+        (["--noise-std", "0.5"], r"--noise-std 0.5: has no effect without -r"),
     ],
 )
 def test_bad_flags_exit_2_before_any_work(tmp_path, capsys, flags, message):

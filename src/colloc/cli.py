@@ -237,8 +237,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument(
         "--noise-std",
         type=_number,
-        default=defaults.noise_std_deg,
-        help="angle noise standard deviation, degrees (default %(default)s)",
+        default=None,
+        help=f"angle noise standard deviation with -r, degrees (default {defaults.noise_std_deg})",
     )
     p.add_argument(
         "--check-true-gains",
@@ -380,7 +380,7 @@ def _pendulum(args: argparse.Namespace) -> int:
         sample_rate=args.samplerate,
         initial_guess=args.initialconditions,
         sensor_noise=args.sensornoise,
-        noise_std_deg=args.noise_std,
+        noise_std_deg=PendulumSettings.noise_std_deg if args.noise_std is None else args.noise_std,
         force_amplitude=args.amplitude,
         scheme=args.scheme,
         hessian=args.hessian,
@@ -391,7 +391,12 @@ def _pendulum(args: argparse.Namespace) -> int:
         noise_model=not args.no_noise_model,
         uncertainty=args.uncertainty,
     )
-    if _report_problems("colloc pendulum", settings.problems()):
+    unused = (
+        [f"--noise-std {args.noise_std}: has no effect without -r (no sensor noise is added)"]
+        if args.noise_std is not None and not args.sensornoise
+        else []
+    )
+    if _report_problems("colloc pendulum", settings.problems() + unused):
         return 2
     store = _open_store(args)
     start = time.perf_counter()

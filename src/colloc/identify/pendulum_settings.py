@@ -112,6 +112,15 @@ class PendulumSettings:
                 f"duration (-d) x sample_rate (-s): gives {self.num_nodes} node(s); "
                 "expected at least 3"
             )
+        elif duration_ok and _finite(self.smoothing_window) and self.smoothing_window >= 0:
+            window = max(5, int(round(self.smoothing_window * self.sample_rate)) | 1)
+            if window > self.num_nodes:
+                out.append(
+                    f"duration (-d): {self.duration:g} s at {self.sample_rate:g} Hz gives "
+                    f"{self.num_nodes} samples, fewer than the {window} over which the state "
+                    f"guess is smoothed ({self.smoothing_window:g} s); expected at least "
+                    f"{(window - 1) / self.sample_rate:g} s"
+                )
         if self.initial_guess not in GAIN_GUESSES:
             out.append(
                 f"initial_guess (-i): expected one of {sorted(GAIN_GUESSES)}, "

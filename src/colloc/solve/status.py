@@ -71,7 +71,8 @@ _STATUS: dict[int, tuple[str, bool, str]] = {
     -1: (
         "Maximum_Iterations_Exceeded",
         False,
-        "raise max_iter, or start closer: a better initial guess (e.g. -i direct for gains) or "
+        "raise max_iter, or start closer: a better initial guess (e.g. gains from "
+        "colloc.identify.fit_gain_schedule, or the pendulum study's -i direct) or "
         "the exact Hessian instead of limited-memory",
     ),
     -2: (
