@@ -87,6 +87,10 @@ def run_cli(argv, capsys):
         (["--uncertainty", "bogus"], r"uncertainty: expected one of \['sandwich', 'kkt'\]"),
         # issue 13: refused only after simulating, about a window the user cannot set
         (["-d", "0.1"], r"duration \(-d\): 0.1 s at 100 Hz gives 11 samples, fewer than the 15 "),
+        # issue 13: a NumPy MemoryError, or no end and no word
+        (["-d", "1e9"], r"1e\+11 nodes and 4e\+11 unknowns need an estimated .* GiB, more than"),
+        (["-n", "1000"], r"num_links \(-n\) 1000, .* GiB, more than the .* GiB available"),
+        (["--amplitude", "1e300"], r"force_amplitude \(--amplitude\): expected at most 1e\+06"),
         # issue 13: silently ignored
         (["--noise-std", "0.5"], r"--noise-std 0.5: has no effect without -r"),
     ],

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import os
 import sys
 import time
 from collections.abc import Callable, Sequence
@@ -45,6 +46,14 @@ def _process_noise(text: str) -> tuple[float, float]:
             f"expected JOINT[,TRUNK] standard deviations > 0, found {text!r}"
         )
     return (parts[0], parts[-1])
+
+
+def _memory_bytes() -> float:
+    """The machine's physical memory (infinite where the platform does not say)."""
+    try:
+        return float(os.sysconf("SC_PHYS_PAGES") * os.sysconf("SC_PAGE_SIZE"))
+    except (AttributeError, ValueError, OSError):
+        return float("inf")
 
 
 def _report_problems(command: str, problems: list[str]) -> bool:
@@ -372,6 +381,7 @@ def _pendulum(args: argparse.Namespace) -> int:
         save_pendulum_animation,
         save_pendulum_plots,
     )
+    from colloc.identify.pendulum_settings import LONG_RUN_SECONDS
     from colloc.identify.summaries import write_json_atomic
 
     settings = PendulumSettings(
@@ -396,8 +406,17 @@ def _pendulum(args: argparse.Namespace) -> int:
         if args.noise_std is not None and not args.sensornoise
         else []
     )
-    if _report_problems("colloc pendulum", settings.problems() + unused):
+    too_big = settings.too_big(_memory_bytes())
+    if _report_problems("colloc pendulum", settings.problems() + unused + too_big):
         return 2
+    needs = settings.estimated_needs()
+    if needs["seconds"] > LONG_RUN_SECONDS:
+        print(
+            f"this will take a while: about {needs['seconds'] / 60:.0f} min by a rough "
+            f"estimate ({needs['nodes']:.3g} nodes, {needs['variables']:.3g} unknowns, "
+            f"{needs['derive_seconds']:.0f} s of it deriving the equations)",
+            flush=True,
+        )
     store = _open_store(args)
     start = time.perf_counter()
     progress = _step_printer(start)

@@ -242,3 +242,20 @@ def test_noise_model_gives_estimates_within_their_error_bars(noisy_runs):
     # the estimated cart force and the disturbance torque are trajectories of the solution
     names = set(modelled.solution.trajectories)
     assert {"F", "w1"} <= {str(getattr(k, "func", k)) for k in names}
+
+
+def test_a_run_is_sized_before_any_work():
+    """The estimate grows with nodes and links as the KKT factor does, and refuses what
+    cannot fit; the measured 1-link, 60 s run is the one-second reference."""
+    base = PendulumSettings(num_links=1, duration=60.0).estimated_needs()
+    assert base["nodes"] == 6001 and base["variables"] == 6001 * 4 + 4
+    assert base["seconds"] == pytest.approx(1.0, rel=0.02)
+    longer = PendulumSettings(num_links=1, duration=120.0).estimated_needs()
+    assert longer["memory_bytes"] == pytest.approx(2 * base["memory_bytes"], rel=1e-3)
+    # 4 links: 10 states and 40 gains per node block instead of 4 and 4
+    four = PendulumSettings(num_links=4, duration=60.0).estimated_needs()
+    assert four["memory_bytes"] / base["memory_bytes"] == pytest.approx(10 * 60 / (4 * 12))
+    assert PendulumSettings(num_links=4).too_big(2**30) == []  # 86 MB fits in 1 GiB
+    (problem,) = PendulumSettings(num_links=4).too_big(2**20)
+    assert "more than the 0.000977 GiB available" in problem
+    assert PendulumSettings(num_links=0).too_big(1.0) == []  # invalid: problems() says why

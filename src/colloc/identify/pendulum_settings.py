@@ -19,6 +19,17 @@ UNCERTAINTY_METHODS = ("sandwich", "kkt")
 #: Command-line names of the collocation schemes, in the order ``--help`` lists them.
 SCHEME_NAMES = ("midpoint", "backward-euler", "trapezoidal", "hermite-simpson")
 
+#: Kane's derivation of the n-link cart pendulum took 40 s at n = 32 and grows as n^2.9
+#: (measured 2026-11-23: 0.9 s at 8, 5.7 s at 16, 17 s at 24, 40 s at 32 links).
+DERIVE_SECONDS_AT_32, DERIVE_EXPONENT = 40.0, 2.9
+#: Simulation, build and solve took about 1 s for the 1-link, 60 s at 100 Hz run (6001 nodes,
+#: 4 states, 4 gains), and grow with the KKT factor's entries (see ``estimated_needs``).
+SECONDS_PER_FACTOR_ENTRY = 1.0 / (6001 * 4 * (2 * 4 + 4))
+#: A run longer than this (estimated) is announced as one that will take a while.
+LONG_RUN_SECONDS = 60.0
+#: Cart force amplitudes above this make the simulation crawl (1e300 N never ended).
+MAX_FORCE_AMPLITUDE = 1e6
+
 
 @dataclass(frozen=True)
 class PendulumSettings:
@@ -151,7 +162,67 @@ class PendulumSettings:
             value = getattr(self, name)
             if not (isinstance(value, int | float) and np.isfinite(value) and value >= 0):
                 out.append(f"{name}: expected a finite number >= 0, found {value!r}")
+        if _finite(self.force_amplitude) and self.force_amplitude > MAX_FORCE_AMPLITUDE:
+            out.append(
+                f"force_amplitude (--amplitude): expected at most {MAX_FORCE_AMPLITUDE:g} N "
+                f"(the simulation crawls beyond), found {self.force_amplitude!r}"
+            )
         return out
+
+    def estimated_needs(self) -> dict[str, float]:
+        """What the run will need, from its settings alone (before any work).
+
+        Memory: eight bytes times a safety factor of three for each entry of the KKT
+        factor, about ``N n_s (2 n_s + n_K)`` for ``N`` nodes, ``n_s`` states and ``n_K``
+        gains (each node's block couples its states to its neighbour's and to every
+        gain). Derivation time: the measured growth of Kane's method with the number of
+        links (:data:`DERIVE_SECONDS_AT_32`, :data:`DERIVE_EXPONENT`).
+
+        Returns
+        -------
+        dict
+            ``nodes``, ``variables``, ``memory_bytes``, ``derive_seconds`` and ``seconds``
+            (derivation plus the rest, scaled from the 1-link 60 s run's second by the
+            factor's entries: a rough figure, for announcing long runs).
+        """
+        n = float(self.num_links)
+        states = 2.0 * (n + 1.0)
+        gains = n * states
+        nodes = float(self.duration) * float(self.sample_rate) + 1.0
+        entries = nodes * states * (2.0 * states + gains)
+        derive = DERIVE_SECONDS_AT_32 * (n / 32.0) ** DERIVE_EXPONENT
+        return {
+            "nodes": nodes,
+            "variables": nodes * states + gains,
+            "memory_bytes": 3.0 * 8.0 * entries,
+            "derive_seconds": derive,
+            "seconds": derive + SECONDS_PER_FACTOR_ENTRY * entries,
+        }
+
+    def too_big(self, memory_bytes: float) -> list[str]:
+        """Problems for a run that cannot fit in ``memory_bytes`` (e.g. the machine's RAM).
+
+        Parameters
+        ----------
+        memory_bytes : float
+
+        Returns
+        -------
+        list of str
+            Empty when the estimate fits (and when the settings are invalid anyway).
+        """
+        if self.problems():
+            return []
+        needs = self.estimated_needs()
+        if needs["memory_bytes"] <= memory_bytes:
+            return []
+        return [
+            f"num_links (-n) {self.num_links}, duration (-d) {self.duration:g} s at "
+            f"{self.sample_rate:g} Hz (-s): {needs['nodes']:.3g} nodes and "
+            f"{needs['variables']:.3g} unknowns need an estimated "
+            f"{needs['memory_bytes'] / 2**30:.3g} GiB, more than the {memory_bytes / 2**30:.3g} "
+            "GiB available; use fewer links, a shorter record or a lower rate"
+        ]
 
     def validate(self) -> None:
         """Raise ``ValueError`` listing every problem (before any work starts)."""
