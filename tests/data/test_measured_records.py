@@ -154,3 +154,22 @@ def test_vertical_grf_reader_errors(tmp_path: Path) -> None:
     path.write_text("0,1\n0,2\n")
     with pytest.raises(ValueError, match=r"time \(column 1\) must be strictly increasing"):
         read_vertical_grf(path)
+
+
+@pytest.mark.parametrize(
+    ("reader", "content", "message"),
+    [
+        (read_belt_perturbation, "time,belt speed\n0,1.2 J\xfcrgen\n".encode("latin-1"), "0xfc"),
+        (read_vertical_grf, "0,1\n0.01,2 J\xfcrgen\n".encode("latin-1"), "0xfc"),
+        (read_winter_gait_cycle, "gait cycle duration, 1 J\xfcrgen\n".encode("latin-1"), "0xfc"),
+        (read_belt_perturbation, b"", "cannot parse it as a table"),
+        (read_vertical_grf, b"", "cannot parse it as a table"),
+    ],
+    ids=["belt-latin1", "grf-latin1", "winter-latin1", "belt-empty", "grf-empty"],
+)
+def test_unreadable_records_name_their_file(tmp_path: Path, reader, content, message) -> None:
+    path = tmp_path / "record.csv"
+    path.write_bytes(content)
+    with pytest.raises(ValueError, match=message) as error:
+        reader(path)
+    assert str(path) in str(error.value)

@@ -358,3 +358,10 @@ def test_trunk_rate_columns_are_all_or_none(trial_dir: Path) -> None:
     frame["trunk_angle_rate"] = 0.5
     frame.to_csv(series, sep=detect_delimiter(series), index=False)
     np.testing.assert_array_equal(read_trial(trial_dir).signals["trunk_angle_rate"], 0.5)
+
+
+def test_latin1_metadata_is_named_not_a_raw_decode_error(trial_dir: Path) -> None:
+    path = trial_dir / "metadata.yaml"
+    path.write_bytes(path.read_bytes() + "subject: J\xfcrgen\n".encode("latin-1"))
+    with pytest.raises(TrialError, match=r"metadata.yaml is not UTF-8 text \(byte 0xfc"):
+        read_trial(trial_dir)

@@ -9,7 +9,7 @@ import pandas as pd
 from numpy.typing import ArrayLike
 from scipy.integrate import cumulative_trapezoid
 
-from colloc.data.trial import detect_delimiter
+from colloc.data.trial import read_table
 
 _TIME_HEADER = "Timestamp"
 _VELOCITY_HEADER = "Belt Velocity"
@@ -50,7 +50,7 @@ def read_belt_perturbation(path: str | os.PathLike[str]) -> tuple[np.ndarray, np
         If the time or velocity column is missing, holds non-numeric values, or time is not
         strictly increasing.
     """
-    frame = pd.read_csv(path, sep=detect_delimiter(path), encoding="utf-8-sig")
+    frame = read_table(path)
     time = _column(frame, _TIME_HEADER, path)
     velocity = _column(frame, _VELOCITY_HEADER, path)
     problems = []

@@ -10,7 +10,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from colloc.data.trial import detect_delimiter
+from colloc.data.trial import read_table
 
 # Header names in Winter_normal.csv (stripped, lower case) -> WinterGaitCycle field.
 _WINTER_COLUMNS: dict[str, str] = {
@@ -110,7 +110,14 @@ def read_winter_gait_cycle(path: str | os.PathLike[str]) -> WinterGaitCycle:
         value is not numeric.
     """
     path = Path(path)
-    rows = list(csv.reader(path.read_text(encoding="utf-8-sig").splitlines()))
+    try:
+        text = path.read_text(encoding="utf-8-sig")
+    except UnicodeDecodeError as error:
+        raise ValueError(
+            f"path {str(path)!r}: not UTF-8 text (byte {error.object[error.start]:#04x} at "
+            f"position {error.start}); save it as UTF-8"
+        ) from error
+    rows = list(csv.reader(text.splitlines()))
     duration = _labelled_number(rows, "gait cycle duration", path)
     speed = _labelled_number(rows, "walking speed", path)
     header_index = next(
@@ -172,7 +179,7 @@ def read_vertical_grf(path: str | os.PathLike[str]) -> tuple[np.ndarray, np.ndar
         If the file does not have exactly 2 numeric columns, or time is not strictly
         increasing.
     """
-    frame = pd.read_csv(path, sep=detect_delimiter(path), header=None)
+    frame = read_table(path, header=None)
     if frame.shape[1] != 2:
         raise ValueError(
             f"path {os.fspath(path)!r}: expected 2 columns (time, force), found {frame.shape[1]}"

@@ -259,10 +259,41 @@ def detect_delimiter(path: str | os.PathLike[str]) -> str:
     return "\t" if path.suffix.lower() in (".tsv", ".txt") else ","
 
 
+def read_table(path: str | os.PathLike[str], **options: Any) -> pd.DataFrame:
+    """Read a delimited text file (delimiter sniffed), naming the file in any error.
+
+    Parameters
+    ----------
+    path : path-like
+    **options
+        Passed to :func:`pandas.read_csv` (e.g. ``header=None``).
+
+    Returns
+    -------
+    pandas.DataFrame
+
+    Raises
+    ------
+    ValueError
+        If the file is not UTF-8 text, is empty or does not parse as a table.
+    """
+    try:
+        return pd.read_csv(path, sep=detect_delimiter(path), encoding="utf-8-sig", **options)
+    except UnicodeDecodeError as error:
+        raise ValueError(
+            f"path {os.fspath(path)!r}: not UTF-8 text (byte {error.object[error.start]:#04x} "
+            f"at position {error.start}); save it as UTF-8"
+        ) from error
+    except (pd.errors.ParserError, pd.errors.EmptyDataError) as error:
+        raise ValueError(
+            f"path {os.fspath(path)!r}: cannot parse it as a table ({error})"
+        ) from error
+
+
 def _read_frame(path: Path, problems: list[str]) -> pd.DataFrame | None:
     try:
-        frame = pd.read_csv(path, sep=detect_delimiter(path), encoding="utf-8-sig")
-    except (pd.errors.ParserError, pd.errors.EmptyDataError, UnicodeDecodeError) as error:
+        frame = read_table(path)
+    except ValueError as error:
         problems.append(f"cannot parse {path.name}: {error}")
         return None
     frame.columns = [str(name).strip() for name in frame.columns]
@@ -297,6 +328,12 @@ def _read_metadata(path: Path, problems: list[str]) -> dict[str, Any]:
             loaded = yaml.safe_load(stream)
     except yaml.YAMLError as error:
         problems.append(f"cannot parse {path.name}: {error}")
+        return {}
+    except UnicodeDecodeError as error:
+        problems.append(
+            f"{path.name} is not UTF-8 text (byte {error.object[error.start]:#04x} at position "
+            f"{error.start}); save it as UTF-8"
+        )
         return {}
     if loaded is None:
         return {}
