@@ -255,6 +255,30 @@ def test_runs_export_csv(stored, tmp_path, capsys):
     assert (tmp_path / "metadata.json").is_file()
 
 
+def test_runs_export_into_a_folder_with_its_files_needs_overwrite(stored, tmp_path, capsys):
+    run_id = stored["summary"]["run_id"]
+    argv = ["runs", "--db", stored["db"], "export", run_id, str(tmp_path)]
+    assert run_cli(argv, capsys)[0] == 0
+    (tmp_path / "parameters.csv").write_text("mine\n")
+    code, out, err = run_cli(argv, capsys)
+    assert code == 2 and "already holds" in err and "'parameters.csv'" in err
+    assert (tmp_path / "parameters.csv").read_text() == "mine\n"  # nothing replaced
+    code, out, err = run_cli([*argv, "--overwrite"], capsys)
+    assert code == 0 and (tmp_path / "parameters.csv").read_text() != "mine\n"
+
+
+def test_runs_delete_needs_six_characters_of_the_id_or_yes(stored, tmp_path, capsys):
+    db = f"sqlite:///{tmp_path / 'copy.db'}"
+    src = stored["db"].removeprefix("sqlite:///")
+    (tmp_path / "copy.db").write_bytes(open(src, "rb").read())
+    run_id = stored["summary"]["run_id"]
+    code, _, err = run_cli(["runs", "delete", run_id[:1], "--db", db], capsys)
+    assert code == 2 and "shorter than 6 characters" in err
+    assert run_id in run_cli(["runs", "list", "--db", db], capsys)[1]  # still there
+    code, out, _ = run_cli(["runs", "delete", run_id[:1], "--yes", "--db", db], capsys)
+    assert code == 0 and out.strip() == f"deleted {run_id}"
+
+
 def test_runs_export_with_an_unknown_format_exits_2(stored, tmp_path, capsys):
     run_id = stored["summary"]["run_id"]
     target = tmp_path / "x"

@@ -48,6 +48,10 @@ def _process_noise(text: str) -> tuple[float, float]:
     return (parts[0], parts[-1])
 
 
+#: ``colloc runs delete`` needs at least this much of an id (or --yes).
+MIN_DELETE_PREFIX = 6
+
+
 def _memory_bytes() -> float:
     """The machine's physical memory (infinite where the platform does not say)."""
     try:
@@ -367,8 +371,10 @@ def build_parser() -> argparse.ArgumentParser:
     exp.add_argument("run_id")
     exp.add_argument("directory", type=Path)
     exp.add_argument("--format", default="csv", help="csv or npz (default %(default)s)")
+    exp.add_argument("--overwrite", action="store_true", help="replace files already there")
     dele = rs.add_parser("delete", help="delete a run", parents=[after])
-    dele.add_argument("run_id")
+    dele.add_argument("run_id", help=f"the id, or a unique prefix of >= {MIN_DELETE_PREFIX}")
+    dele.add_argument("--yes", action="store_true", help="allow a shorter prefix")
     return parser
 
 
@@ -481,9 +487,20 @@ def _runs(args: argparse.Namespace) -> int:
     elif args.runs_command == "show":
         print(store.get(args.run_id).summary())
     elif args.runs_command == "export":
-        for path in store.export(args.run_id, args.directory, format=args.format):
+        exported = store.export(
+            args.run_id, args.directory, format=args.format, overwrite=args.overwrite
+        )
+        for path in exported:
             print(path)
     elif args.runs_command == "delete":
+        if len(args.run_id) < MIN_DELETE_PREFIX and not args.yes:
+            print(
+                f"colloc runs: error: run id {args.run_id!r} is shorter than "
+                f"{MIN_DELETE_PREFIX} characters; give more of the id (colloc runs list), or "
+                "--yes to delete the run it names",
+                file=sys.stderr,
+            )
+            return 2
         print(f"deleted {store.delete(args.run_id)}")
     return 0
 

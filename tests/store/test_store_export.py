@@ -110,7 +110,7 @@ def test_failed_export_leaves_no_files_and_keeps_old_ones(store, tmp_path, monke
 
     monkeypatch.setattr(export_module.np.lib.format, "write_array", failing_write)
     with pytest.raises(OSError, match="disk full"):
-        store.export("0123", tmp_path, format="npz")
+        store.export("0123", tmp_path, format="npz", overwrite=True)
     assert [p.name for p in tmp_path.iterdir()] == [old.name]
     assert old.read_bytes() == b"previous export"
 
@@ -146,3 +146,14 @@ def test_directory_that_is_a_file(store, tmp_path):
     target.write_text("x")
     with pytest.raises(ExportError, match="directory: expected a directory, found a file"):
         store.export("0123", target)
+
+
+def test_export_refuses_to_replace_files_unless_asked(store, tmp_path):
+    first = store.export("0123", tmp_path, format="npz")
+    (tmp_path / first[0].name).write_bytes(b"mine")
+    with pytest.raises(ExportError, match=r"already holds \[.*\.json.*\.npz"):
+        store.export("0123", tmp_path, format="npz")
+    assert first[0].read_bytes() == b"mine"
+    assert sorted(p.name for p in tmp_path.iterdir()) == sorted(p.name for p in first)
+    assert store.export("0123", tmp_path, format="npz", overwrite=True) == first
+    assert first[0].read_bytes() != b"mine"

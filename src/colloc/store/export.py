@@ -27,7 +27,9 @@ _CSV_KINDS = frozenset("biufUS")
 Writer = Callable[[IO[bytes]], None]
 
 
-def export_record(record: RunRecord, directory: str | Path, format: str = "csv") -> list[Path]:
+def export_record(
+    record: RunRecord, directory: str | Path, format: str = "csv", overwrite: bool = False
+) -> list[Path]:
     """Write ``record`` to files in ``directory``.
 
     Parameters
@@ -38,6 +40,9 @@ def export_record(record: RunRecord, directory: str | Path, format: str = "csv")
         Target directory, created if missing.
     format : str, optional
         One of :data:`EXPORTERS` (``"csv"`` or ``"npz"``).
+    overwrite : bool, optional
+        Replace files of the same names already in ``directory``; by default their
+        presence is an error and nothing is written.
 
     Returns
     -------
@@ -47,8 +52,9 @@ def export_record(record: RunRecord, directory: str | Path, format: str = "csv")
     Raises
     ------
     ExportError
-        If ``format`` is unknown, the record cannot be written in it, or ``directory`` is
-        not usable. Nothing is written then.
+        If ``format`` is unknown, the record cannot be written in it, ``directory`` is
+        not usable, or (without ``overwrite``) holds files of the same names. Nothing is
+        written then.
     """
     exporter = EXPORTERS.get(format) if isinstance(format, str) else None
     if exporter is None:
@@ -57,6 +63,12 @@ def export_record(record: RunRecord, directory: str | Path, format: str = "csv")
     target = Path(directory)
     if target.exists() and not target.is_dir():
         raise ExportError(f"directory: expected a directory, found a file at {str(target)!r}")
+    present = sorted(name for name in files if (target / name).exists())
+    if present and not overwrite:
+        raise ExportError(
+            f"directory: {str(target)!r} already holds {present}; pass overwrite=True "
+            "(colloc runs export --overwrite) to replace them"
+        )
     try:
         target.mkdir(parents=True, exist_ok=True)
     except OSError as error:

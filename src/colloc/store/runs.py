@@ -355,7 +355,7 @@ class RunStore:
     # ----------------------------------------------------------------------------- export
 
     def export(
-        self, run_id: str, directory: str | Path, format: str = "csv"
+        self, run_id: str, directory: str | Path, format: str = "csv", overwrite: bool = False
     ) -> builtins.list[Path]:
         """Write a run to files.
 
@@ -364,12 +364,13 @@ class RunStore:
         run_id : str
             Full id or unique prefix.
         directory : str or Path
-            Target directory (created if missing). Existing files of the same names are
-            replaced.
+            Target directory (created if missing).
         format : {"csv", "npz"}, optional
             ``"csv"``: one ``<array>.csv`` per array (0-, 1- or 2-D), ``parameters.csv`` and
             ``metadata.json``. ``"npz"``: ``<run_id>.npz`` with all arrays and
             ``<run_id>.json`` with metadata and parameters.
+        overwrite : bool, optional
+            Replace files of the same names already in ``directory`` (an error otherwise).
 
         Returns
         -------
@@ -379,12 +380,13 @@ class RunStore:
         Raises
         ------
         ExportError
-            If ``format`` is unknown, an array cannot be written as CSV, or ``directory``
-            is not a directory. No file is written or changed then.
+            If ``format`` is unknown, an array cannot be written as CSV, ``directory`` is
+            not a directory, or (without ``overwrite``) holds files of the same names. No
+            file is written or changed then.
         RunNotFoundError
             If no run or more than one run matches.
         """
-        return export_record(self.get(run_id), directory, format)
+        return export_record(self.get(run_id), directory, format, overwrite=overwrite)
 
     @staticmethod
     def export_formats() -> tuple[str, ...]:
