@@ -10,6 +10,7 @@ from __future__ import annotations
 import contextlib
 import io
 import json
+import os
 import re
 import sqlite3
 import xml.etree.ElementTree as ET
@@ -180,6 +181,25 @@ def test_the_run_is_stored(stored):
     np.testing.assert_allclose(record.arrays["times"], np.arange(101) / 20.0)
     assert record.arrays["measurements"].shape == (101, 2)
     assert record.settings["num_nodes"] == 101
+
+
+def test_json_at_a_folder_is_refused_before_work_and_summaries_follow_the_umask(tmp_path, capsys):
+    folder = tmp_path / "folder"
+    folder.mkdir()
+    argv = [*SMALL, "--no-store", "--json", str(folder)]
+    code, out, err = run_cli(argv, capsys)
+    assert code == 2 and "is a folder; give a file path" in err and out == ""
+    assert list(folder.iterdir()) == []
+    summary = tmp_path / "new" / "s.json"
+    assert run_cli([*SMALL, "--no-store", "--json", str(summary)], capsys)[0] == 0
+    umask = os.umask(0)
+    os.umask(umask)
+    assert summary.stat().st_mode & 0o777 == 0o666 & ~umask
+    assert [p.name for p in summary.parent.iterdir()] == ["s.json"]
+    # a path that cannot be written was found only after the work, naming a temporary file
+    code, out, err = run_cli([*SMALL, "--no-store", "--json", "/proc/colloc.json"], capsys)
+    assert code == 2 and "--json '/proc/colloc.json': cannot write in '/proc'" in err
+    assert out == ""
 
 
 def test_runs_list_and_show(stored, capsys):

@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 import os
 import sys
+import tempfile
 import time
 from collections.abc import Callable, Sequence
 from pathlib import Path
@@ -46,6 +47,32 @@ def _process_noise(text: str) -> tuple[float, float]:
             f"expected JOINT[,TRUNK] standard deviations > 0, found {text!r}"
         )
     return (parts[0], parts[-1])
+
+
+def _output_problems(json_path: Path | None, out_dir: Path | None) -> list[str]:
+    """What stops ``--json`` or ``--out`` from being written, found before any work (a file
+    is created and removed where each will go)."""
+    problems = []
+    targets = [("--json", json_path, json_path.parent if json_path else None)]
+    targets.append(("--out", out_dir, out_dir))
+    for flag, given, folder in targets:
+        if given is None or folder is None:
+            continue
+        if flag == "--json" and given.is_dir():
+            problems.append(f"{flag} {str(given)!r}: is a folder; give a file path")
+            continue
+        if folder.exists() and not folder.is_dir():
+            problems.append(f"{flag} {str(given)!r}: {str(folder)!r} is a file, not a folder")
+            continue
+        existing = folder
+        while not existing.exists() and existing != existing.parent:
+            existing = existing.parent
+        try:
+            with tempfile.TemporaryFile(dir=existing):
+                pass
+        except OSError as error:
+            problems.append(f"{flag} {str(given)!r}: cannot write in {str(existing)!r} ({error})")
+    return problems
 
 
 #: ``colloc runs delete`` needs at least this much of an id (or --yes).
@@ -413,7 +440,8 @@ def _pendulum(args: argparse.Namespace) -> int:
         else []
     )
     too_big = settings.too_big(_memory_bytes())
-    if _report_problems("colloc pendulum", settings.problems() + unused + too_big):
+    outputs = _output_problems(args.json, args.out if (args.plot or args.animate) else None)
+    if _report_problems("colloc pendulum", settings.problems() + unused + too_big + outputs):
         return 2
     needs = settings.estimated_needs()
     if needs["seconds"] > LONG_RUN_SECONDS:
@@ -526,7 +554,8 @@ def _gait_identify(args: argparse.Namespace) -> int:
         seed=args.seed,
         process_noise=args.process_noise,
     )
-    if _report_problems("colloc gait identify", settings.problems()):
+    outputs = _output_problems(args.json, None if args.no_plots else args.out)
+    if _report_problems("colloc gait identify", settings.problems() + outputs):
         return 2
     from colloc.identify.gait import identify_gait
     from colloc.identify.gait_outputs import (
