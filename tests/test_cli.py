@@ -328,7 +328,7 @@ def test_animate_flag_writes_a_real_time_gif(stored):
 
 def test_noise_flags_reach_the_run_and_its_summary(tmp_path, capsys):
     argv = [*SMALL, "--process-noise", "0.5", "--input-noise", "1.0", "--no-store"]
-    argv += ["--uncertainty", "kkt", "--json", str(tmp_path / "s.json")]
+    argv += ["--noise-model", "--uncertainty", "kkt", "--json", str(tmp_path / "s.json")]
     code, out, _ = run_cli(argv, capsys)
     assert code == 0, out
     summary = json.loads((tmp_path / "s.json").read_text())
@@ -344,10 +344,11 @@ def test_noise_flags_reach_the_run_and_its_summary(tmp_path, capsys):
         "F": "measured input",
         "w1": "process noise",
     }
-    # the exact-dynamics fit of the same data for comparison, sandwich errors by default
-    argv = [*SMALL, "--process-noise", "0.5", "--no-noise-model", "--no-store"]
+    # by default the exact-dynamics fit of the same data, with sandwich errors
+    argv = [*SMALL, "--process-noise", "0.5", "--no-store"]
     argv += ["--json", str(tmp_path / "t.json")]
     assert run_cli(argv, capsys)[0] == 0
     other = json.loads((tmp_path / "t.json").read_text())
     assert other["uncertainty"] == {"method": "sandwich", "blocks": round(101**0.5)}
     assert {s["name"] for s in other["residual_diagnostics"]["signals"]} == {"q0", "q1"}
+    assert other["settings"]["noise_model"] is False
