@@ -352,3 +352,22 @@ def test_noise_flags_reach_the_run_and_its_summary(tmp_path, capsys):
     assert other["uncertainty"] == {"method": "sandwich", "blocks": round(101**0.5)}
     assert {s["name"] for s in other["residual_diagnostics"]["signals"]} == {"q0", "q1"}
     assert other["settings"]["noise_model"] is False
+
+
+def test_cache_info_and_clear(tmp_path, capsys):
+    from colloc.numeric.cache import BuildCache
+
+    folder = tmp_path / "cache"
+    BuildCache(folder).put("a" * 64, {"x": 1})
+    code, out, _ = run_cli(["cache", "info", "--dir", str(folder)], capsys)
+    assert code == 0 and f"directory: {folder}" in out and "entries:   1 (" in out
+    assert "used:      yes" in out
+    folder.chmod(0o777)
+    try:
+        out = run_cli(["cache", "info", "--dir", str(folder)], capsys)[1]
+        assert "used:      no: " in out and "writable by other users" in out
+    finally:
+        folder.chmod(0o700)
+    code, out, _ = run_cli(["cache", "clear", "--dir", str(folder)], capsys)
+    assert code == 0 and out.strip() == f"deleted 1 entries from {folder}"
+    assert list(folder.iterdir()) == []

@@ -385,6 +385,10 @@ def build_parser() -> argparse.ArgumentParser:
 
     _identify_parser(gs, DEFAULT_URL)
 
+    c = sub.add_parser("cache", help="the build cache: where it is, what it holds; clear it")
+    c.add_argument("cache_command", choices=("info", "clear"))
+    c.add_argument("--dir", type=Path, default=None, help="cache directory (default: colloc's)")
+
     r = sub.add_parser("runs", help="list, show, export or delete stored runs")
     r.add_argument("--db", default=DEFAULT_URL, help="results database URL (default %(default)s)")
     rs = r.add_subparsers(dest="runs_command", required=True)
@@ -644,8 +648,24 @@ def _gait_simulate(args: argparse.Namespace) -> int:
     return 1 if result.fell else 0
 
 
+def _cache(args: argparse.Namespace) -> int:
+    from colloc.numeric.cache import BuildCache
+
+    store = BuildCache(args.dir)
+    if args.cache_command == "clear":
+        print(f"deleted {store.clear()} entries from {store.directory}")
+        return 0
+    entries = store.entries()
+    size = sum(path.stat().st_size for path in entries)
+    print(f"directory: {store.directory}")
+    print(f"entries:   {len(entries)} ({size / 2**20:.1f} MiB)")
+    reason = store.untrusted()
+    print(f"used:      {'no: ' + reason if reason else 'yes'}")
+    return 0
+
+
 GAIT_COMMANDS = {"simulate": _gait_simulate, "identify": _gait_identify}
-COMMANDS = {"pendulum": _pendulum, "gait": _gait, "runs": _runs}
+COMMANDS = {"pendulum": _pendulum, "gait": _gait, "runs": _runs, "cache": _cache}
 
 
 def main(argv: Sequence[str] | None = None) -> int:

@@ -123,15 +123,14 @@ def test_default_directory_follows_xdg(tmp_path, monkeypatch):
     ["{not json", json.dumps({"interval": {"values": "garbage"}}), json.dumps([1, 2])],
     ids=["unreadable", "stale-entry", "wrong-type"],
 )
-def test_corrupt_entry_is_ignored_and_rebuilt(tmp_path, content, caplog):
+def test_corrupt_entry_is_ignored_and_rebuilt(tmp_path, content):
     reference = build(False)
     build(tmp_path)
     (path,) = tmp_path.glob("*.json")
     path.write_text(content)
-    with caplog.at_level(logging.WARNING):
+    with pytest.warns(UserWarning, match=f"build cache entry {path} not used, rebuilding"):
         rebuilt = build(tmp_path)
     assert not rebuilt.cache_hit
-    assert any("cache" in rec.getMessage() for rec in caplog.records)
     z = sample_point(reference, seed=3)
     for a, b in zip(evaluations(reference, z), evaluations(rebuilt, z), strict=True):
         np.testing.assert_array_equal(a, b)
@@ -157,3 +156,48 @@ def test_build_cache_round_trip_and_keys(tmp_path):
     assert cache_key(["ab"]) != key  # parts are separated, not concatenated
     assert cache_key(["b", "a"]) != key
     assert list(tmp_path.glob("*.tmp")) == []  # atomic write leaves no temporary file
+
+
+def test_an_entry_is_used_only_when_its_checksum_and_key_match(tmp_path):
+    build(tmp_path)
+    (path,) = tmp_path.glob("*.json")
+    entry = json.loads(path.read_text())
+    assert entry["format"] == 2 and entry["key"] == path.stem
+    entry["payload"]["interval"] = entry["payload"]["node"]  # planted: a valid but other function
+    path.write_text(json.dumps(entry))
+    with pytest.warns(UserWarning, match="does not match its checksum"):
+        assert not build(tmp_path).cache_hit
+    assert build(tmp_path).cache_hit
+
+
+def test_entries_others_could_have_written_are_not_read(tmp_path):
+    build(tmp_path)
+    tmp_path.chmod(0o777)
+    try:
+        with pytest.warns(UserWarning, match="is writable by other users"):
+            assert not build(tmp_path).cache_hit
+    finally:
+        tmp_path.chmod(0o700)
+    (path,) = tmp_path.glob("*.json")
+    assert path.stat().st_mode & 0o077 == 0  # entries are private
+    assert build(tmp_path).cache_hit
+
+
+def test_other_build_code_means_another_key(tmp_path, monkeypatch):
+    """An entry built by other code (an edit without a version bump) is not found."""
+    import colloc.nlp.build as build_module
+
+    build(tmp_path)
+    assert build(tmp_path).cache_hit
+    monkeypatch.setattr(build_module, "_source_digest", lambda: "other code")
+    assert not build(tmp_path).cache_hit
+    assert len(entries(tmp_path)) == 2
+
+
+def test_clear_deletes_only_entries(tmp_path):
+    build(tmp_path)
+    (tmp_path / "notes.json").write_text("{}")
+    store = BuildCache(tmp_path)
+    assert len(store.entries()) == 1
+    assert store.clear() == 1
+    assert [p.name for p in tmp_path.iterdir()] == ["notes.json"]

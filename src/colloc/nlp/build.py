@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import functools
+import hashlib
 import logging
 from collections.abc import Sequence
 from pathlib import Path
@@ -30,6 +32,31 @@ logger = logging.getLogger(__name__)
 #: schedules' slots, for tracked controller outputs; 3: and a Gauss-Newton switch).
 _VERSION = "3"
 
+#: The code that decides what a built function computes and takes: its source is part of
+#: every cache key, so an entry built by other code (an edit without a version bump, an
+#: older install) is never called with the wrong layout (issue 13: "index 12 is out of
+#: bounds for axis 1 with size 12", from a stale entry).
+_BUILD_SOURCES = (
+    "numeric",
+    "transcription",
+    "nlp/build.py",
+    "nlp/templates.py",
+    "nlp/objective.py",
+    "nlp/placement.py",
+)
+
+
+@functools.cache
+def _source_digest() -> str:
+    root = Path(__file__).resolve().parents[1]
+    h = hashlib.sha256()
+    for name in _BUILD_SOURCES:
+        target = root / name
+        for path in sorted(target.glob("*.py")) if target.is_dir() else [target]:
+            h.update(path.relative_to(root).as_posix().encode())
+            h.update(path.read_bytes())
+    return h.hexdigest()
+
 
 def _fingerprint(
     part: Partition,
@@ -41,6 +68,7 @@ def _fingerprint(
     m = part.model
     return [
         f"colloc-build={_VERSION}",
+        f"source={_source_digest()}",
         "residual=" + expression_digest(list(m.residual)),
         "states=" + ",".join(sm.srepr(x) for x in m.states),
         "inputs=" + ",".join(sm.srepr(r) for r in m.inputs),

@@ -6,7 +6,9 @@ import hashlib
 import json
 import logging
 import os
+import stat
 import tempfile
+import warnings
 from collections.abc import Iterable
 from pathlib import Path
 from typing import Any
@@ -16,7 +18,7 @@ import casadi as ca
 logger = logging.getLogger(__name__)
 
 #: Bump when the layout of cached entries changes.
-CACHE_FORMAT = 1
+CACHE_FORMAT = 2
 
 
 def default_cache_dir() -> Path:
@@ -39,6 +41,12 @@ def cache_key(parts: Iterable[str]) -> str:
 class BuildCache:
     """A directory of JSON files, one per key; writes are atomic (temp file + rename).
 
+    Each entry records the cache format, its key and the SHA-256 of its payload, and is
+    used only when all three match; CasADi deserialises the payload into functions it will
+    run, so a directory or entry another user could have written (not owned by this user,
+    or writable by group or others) is not read at all. Either way the entry is rebuilt and
+    a warning names the file.
+
     Parameters
     ----------
     directory : path, optional
@@ -51,28 +59,107 @@ class BuildCache:
     def _path(self, key: str) -> Path:
         return self.directory / f"{key}.json"
 
+    def untrusted(self, path: Path | None = None) -> str | None:
+        """Why ``path`` (default: the directory) must not be read, or None when it may.
+
+        Parameters
+        ----------
+        path : Path, optional
+
+        Returns
+        -------
+        str or None
+        """
+        target = self.directory if path is None else path
+        try:
+            info = target.stat()
+        except OSError:
+            return None
+        owner = getattr(os, "getuid", lambda: info.st_uid)()
+        if info.st_uid != owner:
+            return f"{target} belongs to another user (uid {info.st_uid})"
+        if info.st_mode & (stat.S_IWGRP | stat.S_IWOTH):
+            return f"{target} is writable by other users (mode {stat.filemode(info.st_mode)})"
+        return None
+
     def get(self, key: str) -> dict[str, Any] | None:
-        """The entry stored under ``key``, or ``None`` (a corrupt entry counts as missing)."""
+        """The entry stored under ``key``, or ``None`` (missing, unreadable, stale or untrusted:
+        each but the first with a warning naming the file)."""
         path = self._path(key)
         if not path.is_file():
             return None
-        try:
-            with path.open(encoding="utf-8") as fh:
-                return json.load(fh)
-        except (OSError, ValueError) as exc:
-            logger.warning("ignoring unreadable cache entry %s: %s", path, exc)
+        reason = self.untrusted() or self.untrusted(path)
+        if reason is None:
+            try:
+                with path.open(encoding="utf-8") as fh:
+                    entry = json.load(fh)
+                reason = _entry_problem(entry, key)
+            except (OSError, ValueError) as exc:
+                reason = f"unreadable ({exc})"
+        if reason is not None:
+            warnings.warn(
+                f"build cache entry {path} not used, rebuilding: {reason}",
+                UserWarning,
+                stacklevel=3,
+            )
             return None
+        payload: dict[str, Any] = entry["payload"]
+        return payload
 
     def put(self, key: str, entry: dict[str, Any]) -> None:
         """Store ``entry`` under ``key``; failures are logged, never raised (a cache is optional)."""
         try:
-            self.directory.mkdir(parents=True, exist_ok=True)
-            fd, tmp = tempfile.mkstemp(dir=self.directory, suffix=".tmp")
+            self.directory.mkdir(parents=True, exist_ok=True, mode=0o700)
+            record = {"format": CACHE_FORMAT, "key": key, "sha256": _payload_digest(entry)}
+            record["payload"] = entry
+            fd, tmp = tempfile.mkstemp(dir=self.directory, suffix=".tmp")  # 0600: private
             with os.fdopen(fd, "w", encoding="utf-8") as fh:
-                json.dump(entry, fh)
+                json.dump(record, fh)
             os.replace(tmp, self._path(key))
         except OSError as exc:
             logger.warning("could not write cache entry in %s: %s", self.directory, exc)
+
+    def entries(self) -> list[Path]:
+        """The entry files in the directory.
+
+        Returns
+        -------
+        list of Path
+        """
+        if not self.directory.is_dir():
+            return []
+        return sorted(p for p in self.directory.glob("*.json") if len(p.stem) == 64)
+
+    def clear(self) -> int:
+        """Delete every entry (only colloc's: files named by a key).
+
+        Returns
+        -------
+        int
+            How many were deleted.
+        """
+        count = 0
+        for path in self.entries():
+            path.unlink(missing_ok=True)
+            count += 1
+        return count
+
+
+def _payload_digest(payload: dict[str, Any]) -> str:
+    return hashlib.sha256(json.dumps(payload, sort_keys=True).encode()).hexdigest()
+
+
+def _entry_problem(entry: Any, key: str) -> str | None:
+    """What is wrong with a loaded entry, or None."""
+    if not isinstance(entry, dict) or "payload" not in entry:
+        return "not an entry of this cache format (written by an older colloc?)"
+    if entry.get("format") != CACHE_FORMAT:
+        return f"cache format {entry.get('format')!r}, this colloc writes {CACHE_FORMAT}"
+    if entry.get("key") != key:
+        return "stored under another key"
+    if entry.get("sha256") != _payload_digest(entry["payload"]):
+        return "its content does not match its checksum"
+    return None
 
 
 def expression_digest(exprs: Iterable[Any]) -> str:
