@@ -371,3 +371,31 @@ def test_cache_info_and_clear(tmp_path, capsys):
     code, out, _ = run_cli(["cache", "clear", "--dir", str(folder)], capsys)
     assert code == 0 and out.strip() == f"deleted 1 entries from {folder}"
     assert list(folder.iterdir()) == []
+
+
+def test_a_read_only_database_fails_before_the_work(tmp_path, capsys):
+    db = tmp_path / "runs.db"
+    RunStore(f"sqlite:///{db}").close()
+    read_only = f"sqlite:///file:{db}?mode=ro&uri=true"
+    code, out, err = run_cli([*SMALL, "--db", read_only, "--out", str(tmp_path / "o")], capsys)
+    assert code == 2 and "cannot be written" in err and "nothing was computed" in err
+    assert out == ""
+
+
+def test_a_store_failure_after_the_work_keeps_the_run_and_says_where(tmp_path, capsys, monkeypatch):
+    from sqlalchemy.exc import OperationalError
+
+    def failing_add(self, record, replace=False):
+        raise OperationalError("INSERT", {}, Exception("database disk image is malformed"))
+
+    monkeypatch.setattr(RunStore, "add", failing_add)
+    out_dir, summary = tmp_path / "out", tmp_path / "s.json"
+    argv = [*SMALL, "--db", f"sqlite:///{tmp_path / 'r.db'}", "--out", str(out_dir)]
+    code, out, err = run_cli([*argv, "--json", str(summary)], capsys)
+    assert code == 1  # finished, but not stored
+    run_id = json.loads(summary.read_text())["run_id"]
+    kept = out_dir / f"unstored-{run_id[:12]}"
+    assert f"the finished run is kept in {kept}" in err and "malformed" in err
+    with np.load(kept / f"{run_id}.npz") as arrays:
+        assert arrays["times"].shape == (101,)
+    assert json.loads((kept / f"{run_id}.json").read_text())["run_id"] == run_id

@@ -190,7 +190,28 @@ def _open_store(args: argparse.Namespace) -> Any:
         return None
     from colloc.store import RunStore  # SQLAlchemy and pandas: only when storing
 
-    return RunStore(args.db)
+    store = RunStore(args.db)
+    store.check_writable()  # a read-only or locked database fails now, not after the work
+    return store
+
+
+def _store_or_keep(command: str, store: Any, record: Any, args: argparse.Namespace) -> bool:
+    """Store ``record``; if the database fails now, keep the run in ``--out`` and say where."""
+    from colloc.store.export import export_record
+
+    try:
+        store.add(record, replace=True)
+        return True
+    except Exception as error:  # noqa: BLE001 - any database failure: keep the finished run
+        folder = Path(args.out) / f"unstored-{record.run_id[:12]}"
+        kept = export_record(record, folder, format="npz", overwrite=True)
+        print(
+            f"{command}: error: storing the run in {args.db} failed "
+            f"({type(error).__name__}: {error}); the finished run is kept in {folder} "
+            f"({', '.join(p.name for p in kept)}: arrays, parameters and settings)",
+            file=sys.stderr,
+        )
+        return False
 
 
 def _print_iteration(row: dict[str, float]) -> None:
@@ -483,9 +504,10 @@ def _pendulum(args: argparse.Namespace) -> int:
     print(f"max relative gain error: {run.max_rel_gain_error:.3%}")
     for note in run.notes:
         print(f"note: {note}")
+    stored = True
     if store is not None:
         progress("store", f"run {run_id[:12]} -> {args.db}")
-        store.add(pendulum_record(run, run_id), replace=True)
+        stored = _store_or_keep("colloc pendulum", store, pendulum_record(run, run_id), args)
     if args.plot:
         progress("plot", f"figures -> {args.out}")
         for path in save_pendulum_plots(run, args.out):
@@ -499,7 +521,7 @@ def _pendulum(args: argparse.Namespace) -> int:
     if args.json is not None:
         write_json_atomic(pendulum_summary(run, run_id), args.json)
         print(f"summary -> {args.json}")
-    return 0 if stats["success"] else 1
+    return 0 if stats["success"] and stored else 1
 
 
 def _runs(args: argparse.Namespace) -> int:
@@ -594,9 +616,10 @@ def _gait_identify(args: argparse.Namespace) -> int:
     print(f"held-out forward simulation: {run.validation['message']}")
     for note in run.notes:
         print(f"note: {note}")
+    stored = True
     if store is not None:
         progress("store", f"run {run_id[:12]} -> {args.db}")
-        store.add(gait_record(run, run_id), replace=True)
+        stored = _store_or_keep("colloc gait identify", store, gait_record(run, run_id), args)
     if not args.no_plots:
         progress("plot", f"figures -> {args.out}")
         for path in save_gait_plots(run, args.out):
@@ -605,7 +628,7 @@ def _gait_identify(args: argparse.Namespace) -> int:
         write_json_atomic(summary, args.json)
         print(f"summary -> {args.json}")
     walked = run.validation.get("walks") is not False
-    return 0 if run.solver["success"] and walked else 1
+    return 0 if run.solver["success"] and walked and stored else 1
 
 
 def _gait(args: argparse.Namespace) -> int:

@@ -144,6 +144,29 @@ class RunStore:
                     f"colloc reads version {schema.SCHEMA_VERSION}; use a new database file"
                 )
 
+    def check_writable(self) -> None:
+        """Raise unless a run could be stored now (a write is tried and rolled back).
+
+        Raises
+        ------
+        StoreURLError
+            If the database is read-only, locked for longer than the busy timeout (30 s),
+            or its tables cannot take a row.
+        """
+        try:
+            with self._engine.connect() as connection:
+                transaction = connection.begin()
+                try:
+                    connection.execute(insert(schema.schema_info).values(version=-1))
+                finally:
+                    transaction.rollback()
+        except SQLAlchemyError as error:
+            cause = getattr(error, "orig", None) or error
+            raise StoreURLError(
+                f"url: the database at {self.url!r} cannot be written ({cause}); nothing was "
+                "computed: fix it, or pass another --db (or --no-store)"
+            ) from error
+
     def close(self) -> None:
         """Release the database connections."""
         self._engine.dispose()
