@@ -304,12 +304,13 @@ def test_all_problems_reported_at_once(trial_dir: Path) -> None:
     _edit_series(trial_dir, lambda f: f.drop(columns=["trunk_x"]))
     _edit_metadata(trial_dir, lambda m: m["units"].__setitem__("time", "ms"))
     (trial_dir / "events.csv").write_text("side,time\nright,-1\n")
-    with pytest.raises(TrialError, match="3 problems found") as info:
+    with pytest.raises(TrialError, match="4 problems found") as info:
         read_trial(trial_dir)
     assert [p.split(" ")[0] for p in info.value.problems] == [
         "missing",
         "right_heel_strikes",
         "metadata",
+        "heel",  # on one side only
     ]
 
 
@@ -330,6 +331,7 @@ def test_content_problems_of_a_trial_in_memory(trial: Trial) -> None:
     assert found == [
         "column 'time' needs at least 2 samples, found 1",
         "metadata 'height' must be a positive number, found 'tall'",
+        "no heel strikes: the events file lists none",
     ]
     time = trial.time.copy()
     time[3] = np.nan
@@ -364,4 +366,50 @@ def test_latin1_metadata_is_named_not_a_raw_decode_error(trial_dir: Path) -> Non
     path = trial_dir / "metadata.yaml"
     path.write_bytes(path.read_bytes() + "subject: J\xfcrgen\n".encode("latin-1"))
     with pytest.raises(TrialError, match=r"metadata.yaml is not UTF-8 text \(byte 0xfc"):
+        read_trial(trial_dir)
+
+
+@pytest.mark.parametrize(
+    ("edit", "message"),
+    [
+        (lambda f: f.assign(right_hip_angle=np.degrees(f["right_hip_angle"])), "in radians but"),
+        (lambda f: f.assign(right_knee_angle=1e300), r"reaches 1e\+300: not a physical signal"),
+        (
+            lambda f: f.assign(time=f["time"] * 1000),
+            r"steps by \d+ \(a rate of .* Hz\): not seconds\?",
+        ),
+        (lambda f: f.assign(belt_speed=f["belt_speed"] > 0), "holds true/false values"),
+    ],
+    ids=["degrees", "1e300", "milliseconds", "true-false"],
+)
+def test_implausible_data_are_named(trial_dir: Path, edit, message) -> None:
+    if "not seconds" in message:
+        _edit_metadata(trial_dir, lambda m: m.pop("sample_rate", None))
+    _edit_series(trial_dir, edit)
+    with pytest.raises(TrialError, match=message):
+        read_trial(trial_dir)
+
+
+def test_strikes_on_one_side_duplicate_columns_and_two_series_files_are_named(
+    trial_dir: Path,
+) -> None:
+    events = pd.read_csv(trial_dir / "events.csv")
+    events.assign(side="right").to_csv(trial_dir / "events.csv", index=False)
+    with pytest.raises(TrialError, match=r"heel strikes on one side only \(\d+ right, 0 left\)"):
+        read_trial(trial_dir)
+    events.iloc[:0].to_csv(trial_dir / "events.csv", index=False)
+    with pytest.raises(TrialError, match="no heel strikes"):
+        read_trial(trial_dir)
+    events.to_csv(trial_dir / "events.csv", index=False)
+    series = next(p for p in trial_dir.iterdir() if p.name.startswith("trial."))
+    lines = series.read_text().splitlines()
+    sep = detect_delimiter(series)
+    header = lines[0].split(sep)
+    lines = [sep.join([*row.split(sep), row.split(sep)[header.index("time")]]) for row in lines]
+    series.write_text("\n".join(lines) + "\n")
+    with pytest.raises(TrialError, match="column 'time' appears more than once"):
+        read_trial(trial_dir)
+    other = "trial.tsv" if series.name == "trial.csv" else "trial.csv"
+    (trial_dir / other).write_text("time\n0\n")
+    with pytest.raises(TrialError, match="several time-series files"):
         read_trial(trial_dir)

@@ -106,7 +106,7 @@ def test_trial_without_heel_strikes(tmp_path):
     trial = copy_fixture(tmp_path)
     events = pd.read_csv(trial / "events.csv")
     events[events["side"] != "right"].to_csv(trial / "events.csv", index=False)
-    assert "right heel strikes" in read_error(trial)
+    assert "heel strikes on one side only (0 right" in read_error(trial)
 
 
 def test_metadata_that_disagrees_with_the_columns(tmp_path):

@@ -12,6 +12,7 @@ import pandas as pd
 
 from colloc.data.columns import (
     COLUMN_UNITS,
+    JOINT_ANGLE_COLUMNS,
     OPTIONAL_GROUPS,
     REQUIRED_COLUMNS,
     TIME_COLUMN,
@@ -263,3 +264,75 @@ def _positive_number(value: Any) -> float | None:
         return None
     number = float(value)
     return number if math.isfinite(number) and number > 0.0 else None
+
+
+#: No gait signal in SI units comes near this: larger values are corrupt (1e300) or in
+#: the wrong units.
+MAX_SIGNAL_MAGNITUDE = 1e6
+#: A joint angle beyond a full turn in a column of radians is most likely in degrees.
+MAX_ANGLE_RAD = 2 * math.pi
+#: Below this rate (Hz) a time column without a stated sample rate is most likely not in
+#: seconds (milliseconds give 0.1 Hz at 100 Hz).
+MIN_PLAUSIBLE_RATE = 10.0
+
+
+def plausibility_problems(
+    time: np.ndarray,
+    signals: pd.DataFrame,
+    right: np.ndarray,
+    left: np.ndarray,
+    sample_rate: float | None,
+) -> list[str]:
+    """Report data that parse but cannot be a gait trial in the canonical units.
+
+    Values beyond :data:`MAX_SIGNAL_MAGNITUDE`, joint angles beyond a full turn (degrees
+    under a radian column), a time column stepping slower than :data:`MIN_PLAUSIBLE_RATE`
+    when no sample rate is stated (milliseconds), and heel strikes on one side only or
+    none at all.
+
+    Parameters
+    ----------
+    time : ndarray, shape (M,)
+    signals : DataFrame, M rows
+    right, left : ndarray
+        Heel-strike times of each side.
+    sample_rate : float or None
+        The metadata's stated rate, if any.
+
+    Returns
+    -------
+    list of str
+    """
+    problems = []
+    for name in signals.columns:
+        values = pd.to_numeric(signals[name], errors="coerce").to_numpy(dtype=float)
+        finite = values[np.isfinite(values)]
+        if not finite.size:
+            continue
+        peak = float(np.max(np.abs(finite)))
+        if peak > MAX_SIGNAL_MAGNITUDE:
+            problems.append(
+                f"column {name!r} reaches {peak:.3g}: not a physical signal in SI units"
+            )
+        elif name in JOINT_ANGLE_COLUMNS and peak > MAX_ANGLE_RAD:
+            problems.append(
+                f"column {name!r} is in radians but reaches {peak:.3g} (more than a full "
+                "turn): degrees? convert to radians"
+            )
+    finite_time = time[np.isfinite(time)]
+    if sample_rate is None and finite_time.size > 1:
+        step = float(np.median(np.diff(finite_time)))
+        if step > 1.0 / MIN_PLAUSIBLE_RATE:
+            problems.append(
+                f"column {TIME_COLUMN!r} steps by {step:.6g} (a rate of {1.0 / step:.3g} Hz): "
+                "not seconds? (time must be in seconds; state sample_rate in the metadata)"
+            )
+    counts = {"right": np.asarray(right).size, "left": np.asarray(left).size}
+    if not any(counts.values()):
+        problems.append("no heel strikes: the events file lists none")
+    elif not all(counts.values()):
+        problems.append(
+            f"heel strikes on one side only ({counts['right']} right, {counts['left']} left): "
+            "check the events file's 'side' column"
+        )
+    return problems

@@ -42,6 +42,7 @@ from colloc.data.checks import (
     metadata_problems,
     metadata_sample_rate,
     nan_problems,
+    plausibility_problems,
     time_problems,
 )
 from colloc.data.columns import COLUMN_UNITS, SIDES, TIME_COLUMN
@@ -129,6 +130,13 @@ class Trial:
         for side in SIDES:
             found += heel_strike_problems(side, getattr(self, f"{side}_heel_strikes"), self.time)
         found += metadata_problems(self.metadata, [TIME_COLUMN, *columns])
+        found += plausibility_problems(
+            self.time,
+            self.signals,
+            self.right_heel_strikes,
+            self.left_heel_strikes,
+            metadata_sample_rate(self.metadata),
+        )
         return found
 
     def validate(self, sampling_tolerance: float = DEFAULT_SAMPLING_TOLERANCE) -> None:
@@ -343,10 +351,29 @@ def _read_metadata(path: Path, problems: list[str]) -> dict[str, Any]:
     return loaded
 
 
+def _raw_column_problems(frame: pd.DataFrame) -> list[str]:
+    """Columns that parse as numbers only by accident: a repeated name (pandas renames the
+    second ``x.1``) and true/false columns."""
+    problems = []
+    names = [str(c) for c in frame.columns]
+    for name in names:
+        base, dot, suffix = name.rpartition(".")
+        if dot and suffix.isdigit() and base in names:
+            problems.append(f"column {base!r} appears more than once in the header")
+    for name in names:
+        if pd.api.types.is_bool_dtype(frame[name]):
+            problems.append(f"column {name!r} holds true/false values, not numbers")
+    return problems
+
+
 def _find_series_file(directory: Path) -> Path:
-    for name in TRIAL_FILE_NAMES:
-        if (directory / name).is_file():
-            return directory / name
+    found = [name for name in TRIAL_FILE_NAMES if (directory / name).is_file()]
+    if len(found) > 1:
+        raise TrialError(
+            str(directory), [f"several time-series files {found}: keep one (which is the trial?)"]
+        )
+    if found:
+        return directory / found[0]
     raise TrialError(
         str(directory), [f"no time-series file found; expected one of {list(TRIAL_FILE_NAMES)}"]
     )
@@ -393,6 +420,7 @@ def read_trial(
         frame = None
     if frame is None:
         raise TrialError(str(path), problems)
+    problems += _raw_column_problems(frame)
     time = pd.to_numeric(frame[TIME_COLUMN], errors="coerce").to_numpy(dtype=float)
     signals = frame.drop(columns=TIME_COLUMN).apply(pd.to_numeric, errors="coerce")
     trial = Trial(time, signals, strikes["right"], strikes["left"], metadata)
