@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import sqlite3
 import zipfile
 from datetime import UTC, datetime
 
@@ -157,3 +158,15 @@ def test_export_refuses_to_replace_files_unless_asked(store, tmp_path):
     assert sorted(p.name for p in tmp_path.iterdir()) == sorted(p.name for p in first)
     assert store.export("0123", tmp_path, format="npz", overwrite=True) == first
     assert first[0].read_bytes() != b"mine"
+
+
+def test_array_names_from_a_crafted_database_are_checked_on_export(tmp_path):
+    db = tmp_path / "runs.db"
+    with RunStore(f"sqlite:///{db}") as store:
+        store.add(RunRecord("0123abcd", "pendulum", {}, {}, arrays={"times": np.arange(3.0)}))
+    with sqlite3.connect(db) as connection:
+        connection.execute("UPDATE colloc_arrays SET name = '../../escaped'")
+    target = tmp_path / "deep" / "er"
+    with RunStore(f"sqlite:///{db}") as store, pytest.raises(ExportError, match="escaped"):
+        store.export("0123abcd", target)
+    assert not (tmp_path / "escaped.csv").exists() and not target.exists()

@@ -19,7 +19,7 @@ import numpy as np
 import pandas as pd
 
 from colloc.store.errors import ExportError
-from colloc.store.record import RunRecord
+from colloc.store.record import ARRAY_NAME_PATTERN, RESERVED_ARRAY_NAMES, RunRecord
 
 #: dtype kinds a CSV cell can hold and read back exactly.
 _CSV_KINDS = frozenset("biufUS")
@@ -59,6 +59,19 @@ def export_record(
     exporter = EXPORTERS.get(format) if isinstance(format, str) else None
     if exporter is None:
         raise ExportError(f"format: expected one of {sorted(EXPORTERS)}, found {format!r}")
+    # names become file names: checked here too, not only when stored (a crafted database)
+    unsafe = [
+        name
+        for name in record.arrays
+        if not isinstance(name, str)
+        or not ARRAY_NAME_PATTERN.match(name)
+        or name in RESERVED_ARRAY_NAMES
+    ]
+    if unsafe:
+        raise ExportError(
+            f"record: array names {unsafe!r} are not safe file names "
+            f"({ARRAY_NAME_PATTERN.pattern}); nothing was written"
+        )
     files = exporter(record)
     target = Path(directory)
     if target.exists() and not target.is_dir():
