@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import math
 import os
 import sys
 import tempfile
@@ -499,7 +500,8 @@ def _pendulum(args: argparse.Namespace) -> int:
         run.initial_gains,
         strict=True,
     ):
-        print(f"{name:<8} {k:12.5f} {i:12.5f} {s:10.5f} {g:12.5f}")
+        error = f"{s:10.5f}" if math.isfinite(s) else f"{'n/a':>10}"
+        print(f"{name:<8} {k:12.5f} {i:12.5f} {error} {g:12.5f}")
     print(f"standard errors: {method}")
     print(f"max relative gain error: {run.max_rel_gain_error:.3%}")
     for note in run.notes:

@@ -259,3 +259,18 @@ def test_a_run_is_sized_before_any_work():
     (problem,) = PendulumSettings(num_links=4).too_big(2**20)
     assert "more than the 0.000977 GiB available" in problem
     assert PendulumSettings(num_links=0).too_big(1.0) == []  # invalid: problems() says why
+
+
+def test_a_failed_solve_reports_no_standard_errors(monkeypatch):
+    from colloc.nlp.problem import Problem
+
+    solve = Problem.solve
+
+    def one_iteration(self, *args, **kwargs):
+        return solve(self, *args, **{**kwargs, "max_iter": 1})
+
+    monkeypatch.setattr(Problem, "solve", one_iteration)
+    run = run_pendulum(PendulumSettings(duration=5.0, sample_rate=20.0, sensor_noise=True))
+    assert not run.solution.success
+    assert np.all(np.isnan(run.standard_errors)) and run.uncertainty is None
+    assert any("no standard errors: the solve did not succeed" in n for n in run.notes)

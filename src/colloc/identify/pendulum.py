@@ -204,11 +204,17 @@ def run_pendulum(
     uncertainty = None
     se = np.full(len(gain_symbols), np.nan)
     notes = []
-    try:
-        uncertainty = parameter_uncertainty(problem, solution, method=settings.uncertainty)
-        se = np.array([uncertainty.standard_errors[k] for k in gain_symbols])
-    except ValueError as exc:
-        notes.append(f"no standard errors: {exc}")
+    if not solution.success:
+        notes.append(
+            f"no standard errors: the solve did not succeed ({solution.status.name}); errors "
+            "away from an optimum mean nothing"
+        )
+    else:
+        try:
+            uncertainty = parameter_uncertainty(problem, solution, method=settings.uncertainty)
+            se = np.array([uncertainty.standard_errors[k] for k in gain_symbols])
+        except ValueError as exc:
+            notes.append(f"no standard errors: {exc}")
     diagnostics = residual_diagnostics(problem, solution.z, setup.reference_std**2)
     if settings.sensor_noise:  # without noise the size check states the obvious
         notes.extend(diagnostics.warnings)
