@@ -68,6 +68,16 @@ def test_errors_in_the_task_are_raised_here_with_the_childs_traceback():
     assert any("watched solver process" in note for note in err.value.__notes__)
 
 
+def crashing(report):
+    report({"iteration": 0.0})
+    os.abort()  # as a segfault in the linear solver would end the process
+
+
+def test_a_solver_that_crashes_leaves_this_process_running_with_a_clear_error():
+    with pytest.raises(RuntimeError, match=r"ended without a result \(exit code -6"):
+        run_watched(crashing, None, stall_seconds=5.0)
+
+
 def decay_problem():
     """``x' = -k x`` tracked on noisy data: k = 0.7."""
     xs = dynamicsymbols("x")

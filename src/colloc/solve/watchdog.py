@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import contextlib
 import multiprocessing
+import time
 import traceback
 from collections.abc import Callable
 from typing import Any, TypeVar
@@ -102,7 +103,14 @@ def run_watched(
             waited = _wait(parent_end, limit)
             if waited is None:
                 raise SolverStalled(limit, iterations)
-            kind, payload = parent_end.recv()
+            try:
+                kind, payload = parent_end.recv()
+            except EOFError:
+                child.join(timeout=5)
+                raise RuntimeError(
+                    f"the solver process ended without a result (exit code {child.exitcode}: "
+                    "it crashed, e.g. in the linear solver); this process is unharmed"
+                ) from None
             if kind == "row":
                 iterations += 1
                 slowest = max(slowest, waited)
@@ -125,8 +133,6 @@ def run_watched(
 
 def _wait(connection: Any, seconds: float) -> float | None:
     """Seconds waited until ``connection`` had something, or None after ``seconds``."""
-    import time
-
     start = time.perf_counter()
     if connection.poll(seconds):
         return time.perf_counter() - start
