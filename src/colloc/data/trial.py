@@ -320,8 +320,12 @@ def _read_events(path: Path, problems: list[str]) -> dict[str, np.ndarray]:
     if missing:
         problems.append(f"{path.name} is missing columns {missing}, found {list(frame.columns)}")
         return empty
+    repeated = [f"{path.name}: {p}" for p in _raw_column_problems(frame)]
+    if repeated:
+        problems.extend(repeated)
+        return empty
     sides = frame["side"].astype(str).str.strip().str.lower()
-    unknown = sorted(set(sides) - set(SIDES))
+    unknown = sorted(set(sides) - set(SIDES), key=str)
     if unknown:
         problems.append(f"{path.name} column 'side' must be one of {list(SIDES)}, found {unknown}")
     times = pd.to_numeric(frame["time"], errors="coerce").to_numpy(dtype=float)

@@ -1,0 +1,184 @@
+"""Seeded fuzzing of what users hand colloc: trial folders, pendulum settings, command lines.
+
+Every outcome must be a valid result or one colloc error naming the problem: a
+:class:`colloc.data.checks.TrialError` (or ``FileNotFoundError`` for a missing folder) from
+the trial reader, a list of problem sentences from the settings, ``SystemExit(2)`` from the
+argument parser. Any other exception is a defect. Each case is bounded in time; together they
+run in well under a minute.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import io
+import shutil
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from colloc.cli import build_parser
+from colloc.data.checks import TrialError
+from colloc.data.trial import read_trial
+from colloc.identify.pendulum_settings import PendulumSettings
+
+FIXTURE = Path(__file__).resolve().parent / "data" / "fixtures" / "gait_trial_tsv"
+CASE_SECONDS = 5.0
+
+STRANGE = [0, -1, 1e300, -1e300, float("nan"), float("inf"), "abc", "", True, "1e3", "NaN"]
+
+
+def _mutate_table(text: str, rng: np.random.Generator) -> str:
+    """One random corruption of a delimited table."""
+    lines = text.splitlines()
+    if len(lines) < 2:  # already emptied or truncated by an earlier corruption
+        return text
+    sep = "\t" if "\t" in lines[0] else ","
+    rows = [line.split(sep) for line in lines]
+    kind = int(rng.integers(9))
+    i = int(rng.integers(1, len(rows)))
+    j = int(rng.integers(len(rows[0])))
+    if kind == 0:  # a strange cell
+        rows[i][j] = str(STRANGE[int(rng.integers(len(STRANGE)))])
+    elif kind == 1:  # a column dropped
+        rows = [r[:j] + r[j + 1 :] for r in rows]
+    elif kind == 2:  # a header renamed
+        rows[0][j] = rows[0][j].upper() + "x"
+    elif kind == 3:  # rows shuffled
+        body = rows[1:]
+        rng.shuffle(body)
+        rows = [rows[0], *body]
+    elif kind == 4:  # truncated
+        rows = rows[: int(rng.integers(1, 4))]
+    elif kind == 5:  # a ragged row
+        rows[i] = rows[i] + ["1", "2"]
+    elif kind == 6:  # a column scaled
+        for r in rows[1:]:
+            with contextlib.suppress(ValueError):
+                r[j] = repr(float(r[j]) * float(rng.choice([1000.0, 57.3, -1.0])))
+    elif kind == 7:  # a duplicated header
+        rows[0][j] = rows[0][(j + 1) % len(rows[0])]
+    else:  # empty
+        return ""
+    return "\n".join(sep.join(r) for r in rows) + "\n"
+
+
+def _mutate_folder(folder: Path, rng: np.random.Generator) -> None:
+    """One to three random corruptions of a trial folder."""
+    for _ in range(int(rng.integers(1, 4))):
+        target = ["trial.tsv", "events.csv", "metadata.yaml", "extra"][int(rng.integers(4))]
+        path = folder / target
+        choice = int(rng.integers(6))
+        if target == "extra":
+            (folder / "trial.csv").write_text("time\n0\n1\n")
+        elif choice == 0 and path.exists():
+            path.unlink()
+        elif choice == 1:
+            path.write_bytes(bytes(rng.integers(0, 256, 64, dtype=np.uint8)))
+        elif choice == 2 and target == "metadata.yaml":
+            path.write_text(
+                ["[1, 2", "- a\n- b\n", "sample_rate: -5\n", "units: 3\n", "a: {b: c"][
+                    int(rng.integers(5))
+                ]
+            )
+        elif path.exists() and target != "metadata.yaml":
+            path.write_text(_mutate_table(path.read_text(errors="replace"), rng))
+
+
+@pytest.mark.parametrize("seed", range(600))
+def test_fuzzed_trial_folders_give_a_trial_or_one_clear_error(tmp_path, seed):
+    folder = tmp_path / "trial"
+    shutil.copytree(FIXTURE, folder)
+    _mutate_folder(folder, np.random.default_rng(seed))
+    start = time.perf_counter()
+    try:
+        trial = read_trial(folder)
+    except TrialError as error:
+        assert error.problems and all(isinstance(p, str) and p for p in error.problems)
+    except FileNotFoundError as error:
+        assert str(folder) in str(error) or "does not exist" in str(error)
+    else:
+        assert trial.problems() == []
+    assert time.perf_counter() - start < CASE_SECONDS
+
+
+FIELDS = {
+    "num_links": [1, 2, 0, -3, 2.5, "2", True, None, 10**9],
+    "duration": [10.0, 0.0, -1.0, 1e9, float("nan"), float("inf"), "10", None],
+    "sample_rate": [50.0, 0.0, -5.0, 1e-3, 1e12, float("nan"), "x"],
+    "initial_guess": ["close", "direct", "zero", "bogus", 3, None],
+    "scheme": ["midpoint", "backward-euler", "rk4", "", None],
+    "noise_std_deg": [0.25, -1.0, float("inf"), "0.1"],
+    "force_amplitude": [10.0, 1e300, -1.0, float("nan")],
+    "seed": [0, -1, 2**40, 1.5, "7", True],
+    "hessian": ["exact", "limited-memory", "newton"],
+    "uncertainty": ["sandwich", "kkt", "bootstrap"],
+    "process_noise": [0.0, 1.0, -2.0, float("inf")],
+    "noise_model": [True, False, "yes", 1],
+}
+
+
+@pytest.mark.parametrize("seed", range(200))
+def test_fuzzed_pendulum_settings_give_problems_never_an_exception(seed):
+    rng = np.random.default_rng(1000 + seed)
+    chosen = {
+        name: values[int(rng.integers(len(values)))]
+        for name, values in FIELDS.items()
+        if rng.random() < 0.6
+    }
+    settings = PendulumSettings(**chosen)
+    problems = settings.problems()
+    assert isinstance(problems, list) and all(isinstance(p, str) and p for p in problems)
+    if not problems:  # a valid run can be sized without error
+        assert settings.estimated_needs()["memory_bytes"] > 0
+        assert isinstance(settings.too_big(24 * 2**30), list)
+
+
+FLAGS = [
+    "-n",
+    "-d",
+    "-s",
+    "-i",
+    "-r",
+    "-p",
+    "-a",
+    "--scheme",
+    "--hessian",
+    "--seed",
+    "--amplitude",
+    "--noise-std",
+    "--process-noise",
+    "--input-noise",
+    "--uncertainty",
+    "--json",
+    "--db",
+    "--out",
+    "--no-store",
+    "--noise-model",
+    "--bogus",
+    "list",
+    "--kind",
+    "--yes",
+]
+VALUES = ["1", "-1", "0", "1e300", "nan", "inf", "abc", "", "close", "/proc/x", "--", "2.5"]
+
+
+@pytest.mark.parametrize("seed", range(200))
+def test_fuzzed_command_lines_parse_or_exit_2(seed):
+    rng = np.random.default_rng(5000 + seed)
+    command = [["pendulum"], ["runs"], ["runs", "list"], ["cache"], ["gait", "identify"]][
+        int(rng.integers(5))
+    ]
+    argv = list(command)
+    for _ in range(int(rng.integers(0, 6))):
+        argv.append(FLAGS[int(rng.integers(len(FLAGS)))])
+        if rng.random() < 0.7:
+            argv.append(VALUES[int(rng.integers(len(VALUES)))])
+    parser = build_parser()
+    with contextlib.redirect_stderr(io.StringIO()) as err:
+        try:
+            parser.parse_args(argv)
+        except SystemExit as exit_:
+            assert exit_.code == 2
+            assert "error:" in err.getvalue()
