@@ -212,6 +212,22 @@ def test_controller_metadata_errors():
         controller_metadata(Tstar, K_bad, mask)
     with pytest.raises(KeyError, match=r"'controller' mapping with \['Tstar', 'K', 'mask'\]"):
         controller_from_metadata({"body_mass": 75.0})
+    # read back: shapes that disagree are named, not used (issue 13)
+    good = controller_metadata(Tstar, K, mask)
+    assert [a.shape for a in controller_from_metadata({"controller": good})] == [
+        Tstar.shape,
+        K.shape,
+        mask.shape,
+    ]
+    cases = [
+        ({"K": K[:2].tolist()}, r"'K': expected shape \(P, 6, n_s\) with P = 4"),
+        ({"mask": mask[:, :5].tolist()}, r"'mask': expected shape \(6, 12\), found \(6, 5\)"),
+        ({"Tstar": [["a"] * 6]}, r"'Tstar': not a numeric array"),
+        ({"feedback": ["x"]}, r"'feedback': names 1 signals, K has 12 columns"),
+    ]
+    for change, message in cases:
+        with pytest.raises(ValueError, match=message):
+            controller_from_metadata({"controller": {**good, **change}})
 
 
 # --------------------------------------------------------------------------- workflow

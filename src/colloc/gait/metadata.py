@@ -134,6 +134,9 @@ def controller_from_metadata(
     ------
     KeyError
         If the metadata has no ``controller`` entry with ``Tstar``, ``K`` and ``mask``.
+    ValueError
+        If they are not numeric arrays of consistent shapes (``Tstar`` (P, 6), ``K``
+        (P, 6, n_s), ``mask`` (6, n_s), ``feedback`` naming the n_s signals when given).
     """
     controller = metadata.get("controller")
     missing = [
@@ -147,11 +150,33 @@ def controller_from_metadata(
             f"found keys {sorted(metadata)}"
         )
     assert isinstance(controller, Mapping)
-    return (
-        np.asarray(controller["Tstar"], dtype=float),
-        np.asarray(controller["K"], dtype=float),
-        np.asarray(controller["mask"], dtype=bool),
-    )
+    arrays, problems = {}, []
+    for key, dtype in (("Tstar", float), ("K", float), ("mask", bool)):
+        try:
+            arrays[key] = np.asarray(controller[key], dtype=dtype)
+        except (TypeError, ValueError) as error:
+            problems.append(f"controller {key!r}: not a numeric array ({error})")
+    if not problems:
+        Tstar, K, mask = arrays["Tstar"], arrays["K"], arrays["mask"]
+        if Tstar.ndim != 2 or Tstar.shape[1] != 6:
+            problems.append(f"controller 'Tstar': expected shape (P, 6), found {Tstar.shape}")
+        if K.ndim != 3 or K.shape[1] != 6 or (Tstar.ndim == 2 and K.shape[0] != Tstar.shape[0]):
+            problems.append(
+                f"controller 'K': expected shape (P, 6, n_s) with P = {Tstar.shape[0]} "
+                f"(Tstar's), found {K.shape}"
+            )
+        elif mask.shape != K.shape[1:]:
+            problems.append(f"controller 'mask': expected shape {K.shape[1:]}, found {mask.shape}")
+        feedback = controller.get("feedback")
+        if feedback is not None and K.ndim == 3 and len(feedback) != K.shape[2]:
+            problems.append(
+                f"controller 'feedback': names {len(feedback)} signals, K has {K.shape[2]} columns"
+            )
+        if not np.all(np.isfinite(Tstar)) or not np.all(np.isfinite(K)):
+            problems.append("controller 'Tstar'/'K': hold NaN or infinite values")
+    if problems:
+        raise ValueError("metadata: " + "; ".join(problems))
+    return arrays["Tstar"], arrays["K"], arrays["mask"]
 
 
 def synthetic_metadata(
