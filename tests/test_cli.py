@@ -399,3 +399,24 @@ def test_a_store_failure_after_the_work_keeps_the_run_and_says_where(tmp_path, c
     with np.load(kept / f"{run_id}.npz") as arrays:
         assert arrays["times"].shape == (101,)
     assert json.loads((kept / f"{run_id}.json").read_text())["run_id"] == run_id
+
+
+def test_a_kill_runs_the_clean_ups_and_leaves_no_half_written_files(tmp_path):
+    import signal
+    import subprocess
+    import sys
+
+    argv = [sys.executable, "-c", "import sys; from colloc.cli import main; sys.exit(main())"]
+    argv += ["pendulum", "-n", "1", "-d", "60", "-s", "200", "-r", "-p", "-a", "--no-store"]
+    argv += ["--out", str(tmp_path / "out"), "--json", str(tmp_path / "s.json")]
+    process = subprocess.Popen(argv, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    assert process.stdout is not None
+    for line in process.stdout:  # wait until the work has started
+        if "simulate" in line:
+            break
+    process.send_signal(signal.SIGTERM)
+    _, err = process.communicate(timeout=60)
+    assert process.returncode == 143, err
+    assert "terminated; nothing half-written was kept" in err
+    left = [p.name for p in tmp_path.rglob("*") if p.suffix in (".part", ".tmp")]
+    assert left == [] and not (tmp_path / "s.json").exists()

@@ -5,8 +5,10 @@ from __future__ import annotations
 import argparse
 import math
 import os
+import signal
 import sys
 import tempfile
+import threading
 import time
 from collections.abc import Callable, Sequence
 from pathlib import Path
@@ -693,12 +695,27 @@ GAIT_COMMANDS = {"simulate": _gait_simulate, "identify": _gait_identify}
 COMMANDS = {"pendulum": _pendulum, "gait": _gait, "runs": _runs, "cache": _cache}
 
 
+class _Terminated(Exception):
+    """SIGTERM, raised where the program is so that its clean-ups run."""
+
+
+def _raise_terminated(signum: int, frame: Any) -> None:
+    raise _Terminated
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     """Entry point of the ``colloc`` command; returns the exit status."""
     parser = build_parser()
     args = parser.parse_args(argv)
+    previous = None
+    if threading.current_thread() is threading.main_thread():
+        # a kill (SIGTERM) runs the same clean-ups as Ctrl-C: no .part files, no half results
+        previous = signal.signal(signal.SIGTERM, _raise_terminated)
     try:
         return COMMANDS[args.command](args)
+    except _Terminated:
+        print("terminated; nothing half-written was kept", file=sys.stderr)
+        return 143
     except (ValueError, TypeError, LookupError, OSError, RuntimeError) as exc:
         # RuntimeError: a solve or a simulation that did not succeed (its message says why).
         print(f"colloc {args.command}: error: {exc}", file=sys.stderr)
@@ -706,6 +723,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     except KeyboardInterrupt:
         print("interrupted; nothing half-written was kept", file=sys.stderr)
         return 130
+    finally:
+        if previous is not None:
+            signal.signal(signal.SIGTERM, previous)
 
 
 if __name__ == "__main__":
