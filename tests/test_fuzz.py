@@ -3,7 +3,8 @@
 Every outcome must be a valid result or one colloc error naming the problem: a
 :class:`colloc.data.checks.TrialError` (or ``FileNotFoundError`` for a missing folder) from
 the trial reader, a list of problem sentences from the settings, ``SystemExit(2)`` from the
-argument parser. Any other exception is a defect. Each case is bounded in time; together they
+argument parser, and problem sentences from the pendulum command's checks after parsing.
+Any other exception is a defect. Each case is bounded in time; together they
 run in well under a minute.
 """
 
@@ -18,7 +19,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from colloc.cli import build_parser
+from colloc.cli import build_parser, pendulum_checks
 from colloc.data.checks import TrialError
 from colloc.data.trial import read_trial
 from colloc.identify.pendulum_settings import PendulumSettings
@@ -178,7 +179,37 @@ def test_fuzzed_command_lines_parse_or_exit_2(seed):
     parser = build_parser()
     with contextlib.redirect_stderr(io.StringIO()) as err:
         try:
-            parser.parse_args(argv)
+            args = parser.parse_args(argv)
         except SystemExit as exit_:
             assert exit_.code == 2
             assert "error:" in err.getvalue()
+            return
+    if args.command == "pendulum":  # what the command checks before any work
+        _, problems = pendulum_checks(args)
+        assert all(isinstance(p, str) and p for p in problems)
+
+
+@pytest.mark.parametrize("seed", range(200))
+def test_fuzzed_pendulum_command_lines_are_checked_without_an_exception(seed):
+    """Only values the parser accepts, so every case reaches the checks after parsing."""
+    rng = np.random.default_rng(9000 + seed)
+    numbers = ["1", "0", "-1", "2.5", "1e300", "-1e9", "nan", "inf", "1e9", "0.1", "3"]
+    argv = ["pendulum"]
+    for flag in ["-n", "-d", "-s", "--seed", "--amplitude", "--noise-std", "--process-noise"]:
+        if rng.random() < 0.6:
+            argv += [flag, numbers[int(rng.integers(len(numbers)))]]
+    for flag in ["-r", "-p", "-a", "--noise-model"]:
+        if rng.random() < 0.5:
+            argv.append(flag)
+    if rng.random() < 0.3:
+        argv += ["--json", ["/proc/x.json", "/", "s.json"][int(rng.integers(3))]]
+    with contextlib.redirect_stderr(io.StringIO()):
+        try:
+            args = build_parser().parse_args(argv)
+        except SystemExit as exit_:
+            assert exit_.code == 2  # e.g. "-n 2.5": not an integer
+            return
+    settings, problems = pendulum_checks(args)
+    assert all(isinstance(p, str) and p for p in problems)
+    if not problems:  # a run that may start can be sized
+        assert settings.estimated_needs()["memory_bytes"] < 24 * 2**40

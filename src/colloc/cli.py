@@ -434,17 +434,22 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
-def _pendulum(args: argparse.Namespace) -> int:
-    from colloc.identify.pendulum import PendulumSettings, run_pendulum
-    from colloc.identify.pendulum_outputs import (
-        pendulum_record,
-        pendulum_run_id,
-        pendulum_summary,
-        save_pendulum_animation,
-        save_pendulum_plots,
-    )
-    from colloc.identify.pendulum_settings import LONG_RUN_SECONDS
-    from colloc.identify.summaries import write_json_atomic
+def pendulum_checks(args: argparse.Namespace) -> tuple[Any, list[str]]:
+    """The settings of ``colloc pendulum`` and every problem found before any work.
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        As :func:`build_parser` parses ``colloc pendulum ...``.
+
+    Returns
+    -------
+    settings : PendulumSettings
+    problems : list of str
+        Invalid settings, options without effect, a run too big for this machine's memory,
+        outputs that cannot be written (empty when the run may start).
+    """
+    from colloc.identify.pendulum_settings import PendulumSettings
 
     settings = PendulumSettings(
         num_links=args.numlinks,
@@ -470,7 +475,23 @@ def _pendulum(args: argparse.Namespace) -> int:
     )
     too_big = settings.too_big(_memory_bytes())
     outputs = _output_problems(args.json, args.out if (args.plot or args.animate) else None)
-    if _report_problems("colloc pendulum", settings.problems() + unused + too_big + outputs):
+    return settings, settings.problems() + unused + too_big + outputs
+
+
+def _pendulum(args: argparse.Namespace) -> int:
+    from colloc.identify.pendulum import run_pendulum
+    from colloc.identify.pendulum_outputs import (
+        pendulum_record,
+        pendulum_run_id,
+        pendulum_summary,
+        save_pendulum_animation,
+        save_pendulum_plots,
+    )
+    from colloc.identify.pendulum_settings import LONG_RUN_SECONDS
+    from colloc.identify.summaries import write_json_atomic
+
+    settings, problems = pendulum_checks(args)
+    if _report_problems("colloc pendulum", problems):
         return 2
     needs = settings.estimated_needs()
     if needs["seconds"] > LONG_RUN_SECONDS:
