@@ -552,6 +552,14 @@ def _pendulum(args: argparse.Namespace) -> int:
 def _runs(args: argparse.Namespace) -> int:
     from colloc.store import RunStore
 
+    if args.runs_command == "delete" and len(args.run_id) < MIN_DELETE_PREFIX and not args.yes:
+        print(
+            f"colloc runs: error: run id {args.run_id!r} is shorter than {MIN_DELETE_PREFIX} "
+            "characters; give more of the id (colloc runs list), or --yes to delete the run "
+            "it names",
+            file=sys.stderr,
+        )
+        return 2
     store = RunStore(args.db, create=False)  # reading (or deleting) creates nothing
     if args.runs_command == "list":
         frame = store.list(kind=args.kind)
@@ -573,14 +581,6 @@ def _runs(args: argparse.Namespace) -> int:
         for path in exported:
             print(path)
     elif args.runs_command == "delete":
-        if len(args.run_id) < MIN_DELETE_PREFIX and not args.yes:
-            print(
-                f"colloc runs: error: run id {args.run_id!r} is shorter than "
-                f"{MIN_DELETE_PREFIX} characters; give more of the id (colloc runs list), or "
-                "--yes to delete the run it names",
-                file=sys.stderr,
-            )
-            return 2
         print(f"deleted {store.delete(args.run_id)}")
     return 0
 

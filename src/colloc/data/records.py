@@ -10,7 +10,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from colloc.data.trial import read_table
+from colloc.data.trial import not_utf8, read_table
 
 # Header names in Winter_normal.csv (stripped, lower case) -> WinterGaitCycle field.
 _WINTER_COLUMNS: dict[str, str] = {
@@ -113,10 +113,7 @@ def read_winter_gait_cycle(path: str | os.PathLike[str]) -> WinterGaitCycle:
     try:
         text = path.read_text(encoding="utf-8-sig")
     except UnicodeDecodeError as error:
-        raise ValueError(
-            f"path {str(path)!r}: not UTF-8 text (byte {error.object[error.start]:#04x} at "
-            f"position {error.start}); save it as UTF-8"
-        ) from error
+        raise ValueError(f"path {str(path)!r}: {not_utf8(error)}") from error
     rows = list(csv.reader(text.splitlines()))
     duration = _labelled_number(rows, "gait cycle duration", path)
     speed = _labelled_number(rows, "walking speed", path)

@@ -267,6 +267,14 @@ def detect_delimiter(path: str | os.PathLike[str]) -> str:
     return "\t" if path.suffix.lower() in (".tsv", ".txt") else ","
 
 
+def not_utf8(error: UnicodeDecodeError) -> str:
+    """What a decode error says about a file, for messages that name it."""
+    return (
+        f"not UTF-8 text (byte {error.object[error.start]:#04x} at position {error.start}); "
+        "save it as UTF-8"
+    )
+
+
 def read_table(path: str | os.PathLike[str], **options: Any) -> pd.DataFrame:
     """Read a delimited text file (delimiter sniffed), naming the file in any error.
 
@@ -288,10 +296,7 @@ def read_table(path: str | os.PathLike[str], **options: Any) -> pd.DataFrame:
     try:
         return pd.read_csv(path, sep=detect_delimiter(path), encoding="utf-8-sig", **options)
     except UnicodeDecodeError as error:
-        raise ValueError(
-            f"path {os.fspath(path)!r}: not UTF-8 text (byte {error.object[error.start]:#04x} "
-            f"at position {error.start}); save it as UTF-8"
-        ) from error
+        raise ValueError(f"path {os.fspath(path)!r}: {not_utf8(error)}") from error
     except (pd.errors.ParserError, pd.errors.EmptyDataError) as error:
         raise ValueError(
             f"path {os.fspath(path)!r}: cannot parse it as a table ({error})"
@@ -342,10 +347,7 @@ def _read_metadata(path: Path, problems: list[str]) -> dict[str, Any]:
         problems.append(f"cannot parse {path.name}: {error}")
         return {}
     except UnicodeDecodeError as error:
-        problems.append(
-            f"{path.name} is not UTF-8 text (byte {error.object[error.start]:#04x} at position "
-            f"{error.start}); save it as UTF-8"
-        )
+        problems.append(f"{path.name} is {not_utf8(error)}")
         return {}
     if loaded is None:
         return {}

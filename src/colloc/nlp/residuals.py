@@ -126,7 +126,9 @@ class ResidualDiagnostics:
         }
 
 
-def tracking_residuals(problem: Problem, z: np.ndarray) -> list[SignalResiduals]:
+def tracking_residuals(
+    problem: Problem, z: np.ndarray, kind: str | None = None
+) -> list[SignalResiduals]:
     """The residuals of every signal of every least-squares term of ``problem`` at ``z``.
 
     Parameters
@@ -134,6 +136,9 @@ def tracking_residuals(problem: Problem, z: np.ndarray) -> list[SignalResiduals]
     problem : Problem
     z : ndarray
         A free vector, e.g. ``solution.z``.
+    kind : str, optional
+        Only the signals of this kind (``"tracking"``, ``"measured input"``, ``"process
+        noise"``); the others are not evaluated.
 
     Returns
     -------
@@ -155,6 +160,8 @@ def tracking_residuals(problem: Problem, z: np.ndarray) -> list[SignalResiduals]
     kinds[len(terms) - len(own) :] = own
     out = []
     for cols in signal_columns(problem):
+        if kind is not None and kinds[cols.term] != kind:
+            continue
         weights = placement.data[:, cols.weight] * terms[cols.term].factors
         data = cols.alone(placement.data, weight=1.0, factor=1.0)
         v0 = placement.mapped.values(local, data).ravel()
@@ -335,9 +342,9 @@ def systematic_misfit(problem: Problem, z: np.ndarray) -> list[str]:
         One note per such signal (empty when none).
     """
     notes = []
-    for s in tracking_residuals(problem, z):
+    for s in tracking_residuals(problem, z, kind="tracking"):
         r = s.residuals[np.isfinite(s.residuals)]
-        if s.kind != "tracking" or r.size < 20:
+        if r.size < 20:
             continue
         lag1 = float(_autocorrelation(r - r.mean(), 1)[0])
         if lag1 > SYSTEMATIC_LIMIT:

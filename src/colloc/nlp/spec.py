@@ -193,7 +193,7 @@ def model_instance_constraints(
         tk = sm.Float(float(times[k]))
         return {x: x.func(tk) for x in model.states}
 
-    out = [sm.sympify(e).xreplace(at(0)) for e in model.initial_constraints]
+    out = [sm.sympify(e, strict=True).xreplace(at(0)) for e in model.initial_constraints]
     if not node_residual:
         for x in model.algebraic_states:
             if times.size >= 3:
