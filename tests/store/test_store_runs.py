@@ -20,6 +20,7 @@ from colloc.store import (
     RunRecord,
     RunStore,
     StoreURLError,
+    StoreWriteError,
 )
 
 
@@ -314,3 +315,51 @@ def test_summary_describes_the_run(store):
     assert rows["k_01"][2] == "NaN"
     assert "  measured: shape (11, 2), dtype float64" in text
     assert text.endswith("ipopt log:  1 lines")
+
+
+def _hold_write_lock(path, mode: str = "IMMEDIATE") -> sqlite3.Connection:
+    """Another process's writer: an open write transaction on the file (IMMEDIATE lets
+    readers in, EXCLUSIVE does not)."""
+    holder = sqlite3.connect(path, isolation_level=None)
+    holder.execute(f"BEGIN {mode}")
+    return holder
+
+
+def test_a_real_lock_fails_the_check_and_the_write_after_the_busy_timeout_storing_nothing(
+    tmp_path,
+):
+    path = tmp_path / "runs.db"
+    url = f"sqlite:///{path}"
+    RunStore(url).close()
+    holder = _hold_write_lock(path)
+    try:
+        store = RunStore(url, busy_timeout=0.2)
+        with pytest.raises(StoreURLError, match="cannot be written.*locked"):
+            store.check_writable()
+        with pytest.raises(StoreWriteError, match=r"refused run run-a.*locked.*nothing of it"):
+            store.add(make_record())
+    finally:
+        holder.rollback()
+        holder.close()
+    assert store.list().empty  # the refused write left no part of the run
+    store.add(make_record())  # and once the lock is gone the same run goes in whole
+    assert store.get("run-a").arrays.keys() == make_record().arrays.keys()
+    store.close()
+
+
+def test_a_database_locked_even_for_reading_cannot_be_opened_and_says_so(tmp_path):
+    path = tmp_path / "runs.db"
+    RunStore(f"sqlite:///{path}").close()
+    holder = _hold_write_lock(path, "EXCLUSIVE")
+    try:
+        with pytest.raises(StoreURLError, match="could not open.*locked"):
+            RunStore(f"sqlite:///{path}", busy_timeout=0.2)
+    finally:
+        holder.rollback()
+        holder.close()
+
+
+@pytest.mark.parametrize("timeout", [-1.0, float("nan"), float("inf"), "5", True])
+def test_a_bad_busy_timeout_is_refused(timeout):
+    with pytest.raises(StoreURLError, match="busy_timeout: expected a finite number"):
+        RunStore("sqlite://", busy_timeout=timeout)

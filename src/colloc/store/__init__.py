@@ -17,6 +17,7 @@ _EXPORTS = {
     "RunNotFoundError": "colloc.store.errors",
     "StoreError": "colloc.store.errors",
     "StoreURLError": "colloc.store.errors",
+    "StoreWriteError": "colloc.store.errors",
     "canonical_json": "colloc.store.ids",
     "digest_arrays": "colloc.store.ids",
     "package_versions": "colloc.store.ids",
@@ -36,6 +37,7 @@ if TYPE_CHECKING:  # for type checkers; re-exported through __all__
         RunNotFoundError,
         StoreError,
         StoreURLError,
+        StoreWriteError,
     )
     from colloc.store.ids import canonical_json, digest_arrays, package_versions, run_id_for
     from colloc.store.record import ParameterRow, RunRecord

@@ -22,6 +22,10 @@ class StoreURLError(StoreError):
     """The database URL cannot be parsed, has no driver, or the database cannot be opened."""
 
 
+class StoreWriteError(StoreError):
+    """The database refused a write (read-only, locked past the busy timeout, damaged)."""
+
+
 class RunNotFoundError(StoreError, LookupError):
     """No run matches the given id or id prefix, or the prefix matches several runs."""
 

@@ -21,7 +21,7 @@ from sqlalchemy.engine import make_url
 from sqlalchemy.exc import ArgumentError, IntegrityError, NoSuchModuleError, SQLAlchemyError
 
 from colloc.store import schema
-from colloc.store.errors import DuplicateRunError, StoreURLError
+from colloc.store.errors import DuplicateRunError, StoreURLError, StoreWriteError
 from colloc.store.export import EXPORTERS, export_record
 from colloc.store.queries import delete_run, insert_run, resolve_run_id
 from colloc.store.record import (
@@ -53,14 +53,22 @@ def _require_existing_file(parsed: Any, url: str) -> None:
         )
 
 
-def _on_sqlite_connect(dbapi_connection: Any, connection_record: Any) -> None:
-    # SQLite ignores foreign keys unless asked, and fails at once on a locked file unless
-    # given a timeout; parallel batch runs write to the same file.
-    if isinstance(dbapi_connection, sqlite3.Connection):
-        cursor = dbapi_connection.cursor()
-        cursor.execute("PRAGMA foreign_keys=ON")
-        cursor.execute("PRAGMA busy_timeout=30000")
-        cursor.close()
+BUSY_TIMEOUT_SECONDS = 30.0
+"""How long a write waits for another writer's lock on an SQLite file before failing."""
+
+
+def _sqlite_setup(busy_timeout: float) -> Any:
+    """A connect hook: SQLite ignores foreign keys unless asked, and fails at once on a
+    locked file unless given a timeout; parallel batch runs write to the same file."""
+
+    def on_connect(dbapi_connection: Any, connection_record: Any) -> None:
+        if isinstance(dbapi_connection, sqlite3.Connection):
+            cursor = dbapi_connection.cursor()
+            cursor.execute("PRAGMA foreign_keys=ON")
+            cursor.execute(f"PRAGMA busy_timeout={round(busy_timeout * 1000)}")
+            cursor.close()
+
+    return on_connect
 
 
 class RunStore:
@@ -75,13 +83,16 @@ class RunStore:
         Create the database file and colloc's tables when missing (default). False (for
         reading, or deleting): refuse a missing SQLite file or a database without colloc's
         tables, changing nothing.
+    busy_timeout : float, optional
+        Seconds a write waits for another writer's lock on an SQLite file before it fails
+        (default, None: :data:`BUSY_TIMEOUT_SECONDS`).
 
     Raises
     ------
     StoreURLError
         If ``url`` is not a URL, names a backend without an installed driver, or the
         database cannot be opened or created (or, with ``create=False``, does not exist or
-        holds no colloc tables).
+        holds no colloc tables), or ``busy_timeout`` is not a finite number >= 0.
 
     Examples
     --------
@@ -90,9 +101,25 @@ class RunStore:
     True
     """
 
-    def __init__(self, url: str = DEFAULT_URL, *, create: bool = True) -> None:
+    def __init__(
+        self,
+        url: str = DEFAULT_URL,
+        *,
+        create: bool = True,
+        busy_timeout: float | None = None,
+    ) -> None:
         if not isinstance(url, str):
             raise StoreURLError(f"url: expected a str, found {type(url).__name__}")
+        if busy_timeout is None:
+            busy_timeout = BUSY_TIMEOUT_SECONDS
+        if (
+            isinstance(busy_timeout, bool)
+            or not isinstance(busy_timeout, int | float)
+            or not 0 <= busy_timeout < float("inf")
+        ):
+            raise StoreURLError(
+                f"busy_timeout: expected a finite number of seconds >= 0, found {busy_timeout!r}"
+            )
         try:
             parsed = make_url(url)
             self._engine: Engine = create_engine(url)
@@ -107,7 +134,8 @@ class RunStore:
             except StoreURLError:
                 self._engine.dispose()
                 raise
-        event.listen(self._engine, "connect", _on_sqlite_connect)
+        self.busy_timeout = float(busy_timeout)
+        event.listen(self._engine, "connect", _sqlite_setup(self.busy_timeout))
         self.url = url
         self.create = create
         try:
@@ -150,7 +178,7 @@ class RunStore:
         Raises
         ------
         StoreURLError
-            If the database is read-only, locked for longer than the busy timeout (30 s),
+            If the database is read-only, locked for longer than the busy timeout,
             or its tables cannot take a row.
         """
         try:
@@ -198,6 +226,9 @@ class RunStore:
             If the record has problems (all are listed).
         DuplicateRunError
             If a run with this id is stored and ``replace`` is false.
+        StoreWriteError
+            If the database refuses the write (read-only, locked past the busy timeout,
+            damaged); nothing of the run is stored.
         """
         validate_record(record)
         created = utc(record.created) if record.created is not None else datetime.now(UTC)
@@ -218,6 +249,12 @@ class RunStore:
         except IntegrityError as error:
             # Another process stored the same id between our check and our insert.
             raise duplicate from error
+        except SQLAlchemyError as error:
+            cause = getattr(error, "orig", None) or error
+            raise StoreWriteError(
+                f"url: the database at {self.url!r} refused run {record.run_id[:12]} "
+                f"({type(cause).__name__}: {cause}); nothing of it was stored"
+            ) from error
 
     def delete(self, run_id: str) -> str:
         """Delete a run.
