@@ -13,6 +13,7 @@ import json
 import os
 import re
 import sqlite3
+import time
 import xml.etree.ElementTree as ET
 
 import numpy as np
@@ -401,6 +402,38 @@ def test_a_store_failure_after_the_work_keeps_the_run_and_says_where(tmp_path, c
     assert json.loads((kept / f"{run_id}.json").read_text())["run_id"] == run_id
 
 
+def test_a_database_locked_by_another_writer_after_the_check_keeps_the_run(
+    tmp_path, capsys, monkeypatch
+):
+    import colloc.store.runs as runs_module
+
+    db = tmp_path / "r.db"
+    holders = []
+    checked = RunStore.check_writable
+
+    def check_then_lock(self):
+        checked(self)  # the database is writable when the work starts...
+        holder = sqlite3.connect(db, isolation_level=None)
+        holder.execute("BEGIN IMMEDIATE")  # ...then another writer takes it and keeps it
+        holders.append(holder)
+
+    monkeypatch.setattr(runs_module, "BUSY_TIMEOUT_SECONDS", 0.3)
+    monkeypatch.setattr(RunStore, "check_writable", check_then_lock)
+    out_dir = tmp_path / "out"
+    try:
+        code, out, err = run_cli([*SMALL, "--db", f"sqlite:///{db}", "--out", str(out_dir)], capsys)
+    finally:
+        for holder in holders:
+            holder.rollback()
+            holder.close()
+    assert code == 1 and "database is locked" in err
+    (kept,) = out_dir.glob("unstored-*")
+    assert f"the finished run is kept in {kept}" in err
+    assert len(list(kept.glob("*.npz"))) == 1
+    with RunStore(f"sqlite:///{db}") as store:
+        assert store.list().empty  # nothing half-stored
+
+
 def test_a_kill_runs_the_clean_ups_and_leaves_no_half_written_files(tmp_path):
     import signal
     import subprocess
@@ -420,3 +453,35 @@ def test_a_kill_runs_the_clean_ups_and_leaves_no_half_written_files(tmp_path):
     assert "terminated; nothing half-written was kept" in err
     left = [p.name for p in tmp_path.rglob("*") if p.suffix in (".part", ".tmp")]
     assert left == [] and not (tmp_path / "s.json").exists()
+
+
+# ----------------------------------------------------------------------------- gait commands
+
+
+@pytest.mark.parametrize(
+    ("flags", "message"),
+    [
+        (["--duration", "1e6"], "GiB, more than the"),
+        (["--duration", "60", "--out", "/proc/x"], "--out '/proc/x': cannot write in '/proc'"),
+        (["--duration", "-1", "--nodes", "3"], "duration: expected a positive"),
+    ],
+)
+def test_gait_simulate_refuses_before_any_work(tmp_path, capsys, flags, message):
+    started = time.perf_counter()
+    code, out, err = run_cli(["gait", "simulate", *flags], capsys)
+    assert code == 2 and message in err and out == ""
+    assert time.perf_counter() - started < 10.0  # refused, not attempted (1e6 s took 8 GB)
+
+
+def test_a_long_gait_simulation_is_announced_with_an_estimate(tmp_path, monkeypatch, capsys):
+    import colloc.gait.workflow as workflow
+
+    def stop(settings, progress=None):  # the announcement comes before any work
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(workflow, "simulate_trial", stop)
+    argv = ["gait", "simulate", "--duration", "480", "--out", str(tmp_path / "o")]
+    code, out, _ = run_cli(argv, capsys)
+    assert code == 130
+    assert re.search(r"this will take a while: about [3-6] min", out)
+    assert "480 s of walking, 4.8e+04 samples" in out

@@ -213,3 +213,121 @@ def test_fuzzed_pendulum_command_lines_are_checked_without_an_exception(seed):
     assert all(isinstance(p, str) and p for p in problems)
     if not problems:  # a run that may start can be sized
         assert settings.estimated_needs()["memory_bytes"] < 24 * 2**40
+
+
+GAIT_SIMULATE_FLAGS = [
+    "--duration",
+    "--speed",
+    "--seed",
+    "--points",
+    "--nodes",
+    "--motor-noise",
+    "--noise",
+    "--perturbation-scale",
+]
+GAIT_IDENTIFY_FLAGS = [
+    "--fit-fraction",
+    "--points",
+    "--start",
+    "--duration",
+    "--segment-nodes",
+    "--max-iter",
+    "--seed",
+    "--process-noise",
+]
+GAIT_NUMBERS = ["1", "0", "-1", "2.5", "1e300", "-1e9", "nan", "inf", "1e6", "0.75", "3", "1,2"]
+GAIT_CHOICES = {
+    "--structure": ["full", "joint-isolated", "bogus"],
+    "--feedback": ["all", "joints", "joints+trunk", "metadata", "x"],
+    "--track": ["angles", "angles,trunk,torques", "torques", "angles,angles", ",", "bogus"],
+    "--scheme": ["midpoint", "backward-euler", "rk4"],
+}
+
+
+@pytest.mark.parametrize("seed", range(150))
+def test_fuzzed_gait_command_lines_are_checked_without_an_exception(seed, tmp_path):
+    """``colloc gait simulate|identify``: the parser's exit 2, or the checks after parsing
+    give problem sentences (a trial too big for the machine among them) and nothing else."""
+    from colloc.cli import gait_identify_checks, gait_simulate_checks
+
+    rng = np.random.default_rng(13000 + seed)
+    simulate = bool(rng.integers(2))
+    argv = ["gait", "simulate"] if simulate else ["gait", "identify"]
+    if not simulate:
+        argv.append([str(FIXTURE), str(tmp_path / "missing"), "/proc/x"][int(rng.integers(3))])
+    for flag in GAIT_SIMULATE_FLAGS if simulate else GAIT_IDENTIFY_FLAGS:
+        if rng.random() < 0.5:
+            argv += [flag, GAIT_NUMBERS[int(rng.integers(len(GAIT_NUMBERS)))]]
+    for flag, choices in GAIT_CHOICES.items():
+        if simulate and flag in ("--track", "--scheme"):
+            continue  # identification only
+        if rng.random() < 0.3:
+            argv += [flag, choices[int(rng.integers(len(choices)))]]
+    if simulate and rng.random() < 0.4:
+        argv.append("--unperturbed")
+    argv += [
+        "--out",
+        [str(tmp_path / "o"), "/proc/x", str(FIXTURE / "trial.tsv")][int(rng.integers(3))],
+    ]
+    with contextlib.redirect_stderr(io.StringIO()) as err:
+        try:
+            args = build_parser().parse_args(argv)
+        except SystemExit as exit_:
+            assert exit_.code == 2 and "error:" in err.getvalue()
+            return
+    started = time.perf_counter()
+    checks = gait_simulate_checks if simulate else gait_identify_checks
+    settings, problems = checks(args)
+    assert time.perf_counter() - started < CASE_SECONDS
+    assert all(isinstance(p, str) and p for p in problems)
+    if simulate and not problems:  # a simulation that may start fits the machine
+        assert settings.estimated_needs()["memory_bytes"] < 24 * 2**30
+    assert not (tmp_path / "o").exists()  # checking writes nothing
+
+
+SHARED = Path(__file__).resolve().parents[1] / ".." / "shared" / "data"
+BELT = Path(__file__).resolve().parents[1] / "src" / "colloc" / "gait" / "reference"
+
+
+def _record_cases(tmp_path: Path) -> list[tuple[str, Path, object]]:
+    """(name, a short copy of a real record, its reader) for the record readers."""
+    from colloc.data import read_belt_perturbation, read_vertical_grf, read_winter_gait_cycle
+
+    belt = tmp_path / "belt.txt"
+    belt.write_text("\n".join((BELT / "RandomSlowSpeed1.txt").read_text().splitlines()[:40]))
+    grf = tmp_path / "grf.csv"
+    grf.write_text("".join(f"{534.1 + 0.01 * i:.4f},{200.0 + 10 * i:.3f}\n" for i in range(30)))
+    cases: list[tuple[str, Path, object]] = [
+        ("belt", belt, read_belt_perturbation),
+        ("grf", grf, read_vertical_grf),
+    ]
+    winter = SHARED / "winter-normal-gait-cycle" / "Winter_normal.csv"
+    if winter.is_file():
+        copy = tmp_path / "winter.csv"
+        copy.write_bytes(winter.read_bytes())
+        cases.append(("winter", copy, read_winter_gait_cycle))
+    return cases
+
+
+@pytest.mark.parametrize("seed", range(100))
+def test_fuzzed_belt_and_force_records_give_arrays_or_one_error_naming_the_file(tmp_path, seed):
+    rng = np.random.default_rng(17000 + seed)
+    cases = _record_cases(tmp_path)
+    name, path, reader = cases[int(rng.integers(len(cases)))]
+    if rng.random() < 0.15:
+        path.write_bytes(bytes(rng.integers(0, 256, 80, dtype=np.uint8)))
+    else:
+        text = path.read_text(encoding="utf-8-sig")
+        for _ in range(int(rng.integers(1, 4))):
+            text = _mutate_table(text, rng)
+        path.write_text(text)
+    started = time.perf_counter()
+    try:
+        result = reader(path)
+    except ValueError as error:  # the readers' one error: it names the file
+        assert str(path) in str(error), (name, error)
+    else:
+        arrays = result if isinstance(result, tuple) else (result.hip, result.knee)
+        for array in arrays:
+            assert isinstance(array, np.ndarray) and np.all(np.isfinite(array))
+    assert time.perf_counter() - started < CASE_SECONDS

@@ -585,7 +585,21 @@ def _runs(args: argparse.Namespace) -> int:
     return 0
 
 
-def _gait_identify(args: argparse.Namespace) -> int:
+def gait_identify_checks(args: argparse.Namespace) -> tuple[Any, list[str]]:
+    """The settings of ``colloc gait identify`` and every problem found before any work.
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        As :func:`build_parser` parses ``colloc gait identify ...``.
+
+    Returns
+    -------
+    settings : GaitIdentifySettings
+    problems : list of str
+        Invalid settings and outputs that cannot be written (empty when the run may start;
+        the trial itself is read, and checked, by the run).
+    """
     from colloc.identify.gait_settings import GaitIdentifySettings
 
     settings = GaitIdentifySettings(
@@ -607,7 +621,12 @@ def _gait_identify(args: argparse.Namespace) -> int:
         process_noise=args.process_noise,
     )
     outputs = _output_problems(args.json, None if args.no_plots else args.out)
-    if _report_problems("colloc gait identify", settings.problems() + outputs):
+    return settings, settings.problems() + outputs
+
+
+def _gait_identify(args: argparse.Namespace) -> int:
+    settings, problems = gait_identify_checks(args)
+    if _report_problems("colloc gait identify", problems):
         return 2
     from colloc.identify.gait import identify_gait
     from colloc.identify.gait_outputs import (
@@ -660,8 +679,22 @@ def _gait(args: argparse.Namespace) -> int:
     return GAIT_COMMANDS[args.gait_command](args)
 
 
-def _gait_simulate(args: argparse.Namespace) -> int:
-    from colloc.gait.workflow import GaitSimulationSettings, simulate_trial
+def gait_simulate_checks(args: argparse.Namespace) -> tuple[Any, list[str]]:
+    """The settings of ``colloc gait simulate`` and every problem found before any work.
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        As :func:`build_parser` parses ``colloc gait simulate ...``.
+
+    Returns
+    -------
+    settings : GaitSimulationSettings
+    problems : list of str
+        Invalid settings, a trial too big for this machine's memory, an output folder that
+        cannot be written (empty when the run may start).
+    """
+    from colloc.gait.workflow import GaitSimulationSettings
 
     # Flags left out take the settings' defaults (defined once, in colloc.gait.settings).
     optional = {"num_points": args.points} if args.points is not None else {}
@@ -679,8 +712,24 @@ def _gait_simulate(args: argparse.Namespace) -> int:
         motor_noise=args.motor_noise,
         noise=args.noise,
     )
-    if _report_problems("colloc gait simulate", settings.problems()):
+    too_big = settings.too_big(_memory_bytes())
+    return settings, settings.problems() + too_big + _output_problems(None, args.out)
+
+
+def _gait_simulate(args: argparse.Namespace) -> int:
+    from colloc.gait.settings import LONG_SIMULATION_SECONDS
+    from colloc.gait.workflow import simulate_trial
+
+    settings, problems = gait_simulate_checks(args)
+    if _report_problems("colloc gait simulate", problems):
         return 2
+    needs = settings.estimated_needs()
+    if needs["seconds"] > LONG_SIMULATION_SECONDS:
+        print(
+            f"this will take a while: about {needs['seconds'] / 60:.0f} min by a rough "
+            f"estimate ({settings.duration:g} s of walking, {needs['samples']:.3g} samples)",
+            flush=True,
+        )
     start = time.perf_counter()
     result = simulate_trial(settings, progress=_step_printer(start))
     for name, path in result.files.items():

@@ -30,6 +30,18 @@ BELT_RECORD_ENV = "COLLOC_BELT_RECORD"
 #: P x (6 + 6 x 17) = 2160 parameters for it, against 21 600 at the former P = 200.
 DEFAULT_NUM_POINTS = 20
 
+#: Wall seconds per simulated second of walking, and the fixed cost before it (cycle, settle,
+#: design, figures). Measured on the 2-core machine at the defaults: 60 s of walking took
+#: 23 s of simulation after 20 s of set-up; the whole 480 s record took 4 min 37 s.
+SIMULATION_SECONDS_PER_SECOND, SIMULATION_SETUP_SECONDS = 0.5, 30.0
+
+#: Bytes held per trial sample (about 50 float64 columns, a few copies while the trial is
+#: written) and the process's own size (330 MB measured for 10 s and for 60 s of walking).
+BYTES_PER_SAMPLE, BASE_BYTES = 1600.0, 0.4 * 2**30
+
+#: Runs estimated longer than this are announced before they start [s].
+LONG_SIMULATION_SECONDS = 120.0
+
 #: Gait-controller structures accepted by :attr:`GaitSimulationSettings.structure`.
 STRUCTURES: tuple[str, ...] = ("full", "joint-isolated")
 
@@ -168,6 +180,52 @@ class GaitSimulationSettings:
                 "on a constant-speed belt (perturbed=False)"
             )
         return out
+
+    def estimated_needs(self) -> dict[str, float]:
+        """What the simulation will need, from its settings alone (before any work).
+
+        Memory grows with the trial's samples (:data:`BYTES_PER_SAMPLE` each over
+        :data:`BASE_BYTES`), time with the simulated seconds
+        (:data:`SIMULATION_SECONDS_PER_SECOND` after :data:`SIMULATION_SETUP_SECONDS`):
+        rough figures for refusing what cannot fit and announcing what is long.
+
+        Returns
+        -------
+        dict
+            ``samples``, ``memory_bytes`` and ``seconds``.
+        """
+        samples = float(self.duration) * float(self.sample_rate) + 1.0
+        return {
+            "samples": samples,
+            "memory_bytes": BASE_BYTES + BYTES_PER_SAMPLE * samples,
+            "seconds": SIMULATION_SETUP_SECONDS
+            + SIMULATION_SECONDS_PER_SECOND * float(self.duration),
+        }
+
+    def too_big(self, memory_bytes: float) -> list[str]:
+        """Problems for a simulation that cannot fit in ``memory_bytes`` (e.g. the RAM).
+
+        Parameters
+        ----------
+        memory_bytes : float
+
+        Returns
+        -------
+        list of str
+            Empty when the estimate fits (and when the settings are invalid anyway).
+        """
+        if self.problems():
+            return []
+        needs = self.estimated_needs()
+        if needs["memory_bytes"] <= memory_bytes:
+            return []
+        return [
+            f"duration {self.duration:g} s at sample_rate {self.sample_rate:g} Hz: "
+            f"{needs['samples']:.3g} samples need an estimated "
+            f"{needs['memory_bytes'] / 2**30:.3g} GiB, more than the "
+            f"{memory_bytes / 2**30:.3g} GiB available (and about "
+            f"{needs['seconds'] / 3600:.3g} h); simulate a shorter trial or a lower rate"
+        ]
 
     @property
     def belt_path(self) -> Path:
