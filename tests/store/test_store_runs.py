@@ -8,7 +8,7 @@ from datetime import UTC, datetime, timedelta, timezone
 import numpy as np
 import pandas as pd
 import pytest
-from sqlalchemy import false
+from sqlalchemy import create_engine, false, text
 
 import colloc.store.queries as queries_module
 import colloc.store.runs as runs_module
@@ -74,20 +74,31 @@ def db_path(tmp_path):
     return tmp_path / "runs.db"
 
 
-@pytest.fixture
-def store(db_path):
-    with RunStore(f"sqlite:///{db_path}") as opened:
+@pytest.fixture(params=["sqlite", "postgresql"])
+def store(request, db_path):
+    """The same tests against an SQLite file and a real PostgreSQL server."""
+    url = (
+        f"sqlite:///{db_path}"
+        if request.param == "sqlite"
+        else request.getfixturevalue("postgres_url")
+    )
+    with RunStore(url) as opened:
         yield opened
 
 
-def row_counts(db_path, run_id: str) -> tuple[int, int, int]:
-    with sqlite3.connect(db_path) as connection:
-        return tuple(
-            connection.execute(
-                f"SELECT COUNT(*) FROM {table} WHERE run_id = ?", (run_id,)
-            ).fetchone()[0]
-            for table in ("colloc_runs", "colloc_parameters", "colloc_arrays")
-        )
+def row_counts(store, run_id: str) -> tuple[int, int, int]:
+    """Rows of a run in each table, counted by a separate connection."""
+    engine = create_engine(store.url)
+    try:
+        with engine.connect() as connection:
+            return tuple(
+                connection.execute(
+                    text(f"SELECT COUNT(*) FROM {table} WHERE run_id = :r"), {"r": run_id}
+                ).scalar_one()
+                for table in ("colloc_runs", "colloc_parameters", "colloc_arrays")
+            )
+    finally:
+        engine.dispose()
 
 
 def test_round_trip_is_exact(store):
@@ -122,7 +133,7 @@ def test_nan_parameter_values_read_back_as_missing(store):
     assert np.isnan(frame.loc[0, "known"]) and frame.loc[0, "identified"] == 1.0
 
 
-def test_failure_while_writing_arrays_leaves_no_trace(store, db_path, monkeypatch):
+def test_failure_while_writing_arrays_leaves_no_trace(store, monkeypatch):
     earlier = make_record("run-a", seed=1)
     store.add(earlier)
     calls = []
@@ -138,13 +149,13 @@ def test_failure_while_writing_arrays_leaves_no_trace(store, db_path, monkeypatc
     with pytest.raises(RuntimeError, match="disk on fire"):
         store.add(make_record("run-b", seed=2))
     assert len(calls) == 3  # the failure really happened part-way through the arrays
-    assert row_counts(db_path, "run-b") == (0, 0, 0)
-    assert row_counts(db_path, "run-a") == (1, 3, 7)
+    assert row_counts(store, "run-b") == (0, 0, 0)
+    assert row_counts(store, "run-a") == (1, 3, 7)
     assert list(store.list()["run_id"]) == ["run-a"]
     assert_same_record(store.get("run-a"), earlier)
 
 
-def test_failed_replace_keeps_the_old_run(store, db_path, monkeypatch):
+def test_failed_replace_keeps_the_old_run(store, monkeypatch):
     old = make_record("run-a", seed=1)
     store.add(old)
     new = make_record("run-a", seed=2, kind="gait")
@@ -159,7 +170,7 @@ def test_failed_replace_keeps_the_old_run(store, db_path, monkeypatch):
     assert_same_record(store.get("run-a"), old)
     store.add(new, replace=True)
     assert_same_record(store.get("run-a"), new)
-    assert row_counts(db_path, "run-a") == (1, 3, 7)
+    assert row_counts(store, "run-a") == (1, 3, 7)
 
 
 def test_duplicate_id_is_refused(store):
@@ -187,11 +198,11 @@ def test_prefix_lookup(store):
         store.get("")
 
 
-def test_delete(store, db_path):
+def test_delete(store):
     store.add(make_record("abc"))
     store.add(make_record("xyz"))
     assert store.delete("ab") == "abc"
-    assert row_counts(db_path, "abc") == (0, 0, 0)
+    assert row_counts(store, "abc") == (0, 0, 0)
     assert list(store.list()["run_id"]) == ["xyz"]
     assert len(store) == 1
     with pytest.raises(RunNotFoundError, match="no stored run"):
@@ -363,3 +374,56 @@ def test_a_database_locked_even_for_reading_cannot_be_opened_and_says_so(tmp_pat
 def test_a_bad_busy_timeout_is_refused(timeout):
     with pytest.raises(StoreURLError, match="busy_timeout: expected a finite number"):
         RunStore("sqlite://", busy_timeout=timeout)
+
+
+def _write_runs(url: str, writer: int, count: int) -> None:
+    with RunStore(url) as opened:
+        for i in range(count):
+            opened.add(make_record(f"w{writer}-{i:03d}", seed=writer * 1000 + i))
+
+
+def test_concurrent_writers_in_several_processes_lose_and_corrupt_nothing(store):
+    """Four processes store 15 runs each into one database at the same time."""
+    import multiprocessing
+
+    context = multiprocessing.get_context("spawn")
+    writers = [context.Process(target=_write_runs, args=(store.url, w, 15)) for w in range(4)]
+    for process in writers:
+        process.start()
+    for process in writers:
+        process.join(timeout=120)
+        assert process.exitcode == 0
+    stored = sorted(store.list()["run_id"])
+    assert stored == sorted(f"w{w}-{i:03d}" for w in range(4) for i in range(15))
+    for run_id in stored[::7]:  # each read back whole and exact
+        writer, i = run_id[1:].split("-")
+        assert_same_record(store.get(run_id), make_record(run_id, seed=int(writer) * 1000 + int(i)))
+        assert row_counts(store, run_id) == (1, 3, 7)
+
+
+def test_the_batch_log_records_entries_and_finds_done_work(store):
+    entries = [
+        {"kind": "pendulum", "entry_key": f"key-{i}", "settings": {"seed": i}} for i in range(3)
+    ]
+    store.add(make_record("run-0"))
+    log = store.batches
+    log.start("batch-1", {"file": "b.yaml"}, entries)
+    log.record("batch-1", 0, "done", run_id="run-0", seconds=1.5)
+    log.record("batch-1", 1, "failed", error="TrialError: no heel strikes")
+    assert log.done(["key-0", "key-1", "key-2"]) == {"key-0": {"run_id": "run-0", "output": None}}
+    log.finish("batch-1")
+    got = log.get("batch-")
+    assert got["status"] == "finished" and got["spec"] == {"file": "b.yaml"}
+    assert list(got["entries"]["status"]) == ["done", "failed", "cancelled"]
+    assert got["entries"]["settings"][2] == {"seed": 2}
+    assert list(store.list(batch="batch-1")["run_id"]) == ["run-0"]
+    listed = log.list()
+    assert (listed.loc[0, "done"], listed.loc[0, "failed"], listed.loc[0, "cancelled"]) == (1, 1, 1)
+    store.delete("run-0")  # a deleted run is no longer done work
+    assert log.done(["key-0"]) == {}
+    log.start("batch-1", {"file": "b.yaml"}, entries)  # taken up again: unfinished -> pending
+    assert list(log.get("batch-1")["entries"]["status"]) == ["done", "pending", "pending"]
+    with pytest.raises(RecordError, match="recorded with other entries"):
+        log.start("batch-1", {}, entries[:2])
+    with pytest.raises(RunNotFoundError, match="no stored batch has an id starting with 'x'"):
+        log.get("x")

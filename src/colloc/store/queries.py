@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 from datetime import datetime
+from typing import Any
 
 from sqlalchemy import Connection, delete, insert, select
 
@@ -97,16 +98,41 @@ def resolve_run_id(connection: Connection, run_id: str) -> str:
     RunNotFoundError
         If ``run_id`` is empty, matches nothing, or is a prefix of several ids.
     """
-    if not isinstance(run_id, str) or not run_id:
-        raise RunNotFoundError(f"run_id: expected a non-empty id or id prefix, found {run_id!r}")
-    column = schema.runs.c.run_id
-    exact = connection.execute(select(column).where(column == run_id)).scalar()
+    return resolve_id(connection, schema.runs.c.run_id, run_id, "run")
+
+
+def resolve_id(connection: Connection, column: Any, given: str, what: str) -> str:
+    """The one value of ``column`` equal to, or else starting with, ``given``.
+
+    Parameters
+    ----------
+    connection : sqlalchemy.Connection
+    column : sqlalchemy column
+        A primary-key id column.
+    given : str
+        Full id or prefix; SQL wildcards in it match literally.
+    what : str
+        What the ids name, for the errors ("run", "batch").
+
+    Returns
+    -------
+    str
+
+    Raises
+    ------
+    RunNotFoundError
+        If ``given`` is empty, matches nothing, or is a prefix of several ids.
+    """
+    name = f"{what}_id"
+    if not isinstance(given, str) or not given:
+        raise RunNotFoundError(f"{name}: expected a non-empty id or id prefix, found {given!r}")
+    exact = connection.execute(select(column).where(column == given)).scalar()
     if exact is not None:
         return str(exact)
     matches = (
         connection.execute(
             select(column)
-            .where(column.startswith(run_id, autoescape=True))
+            .where(column.startswith(given, autoescape=True))
             .order_by(column)
             .limit(AMBIGUOUS_SHOWN + 1)
         )
@@ -114,12 +140,11 @@ def resolve_run_id(connection: Connection, run_id: str) -> str:
         .all()
     )
     if not matches:
-        raise RunNotFoundError(f"run_id: no stored run has an id starting with {run_id!r}")
+        raise RunNotFoundError(f"{name}: no stored {what} has an id starting with {given!r}")
     if len(matches) > 1:
         shown = ", ".join(matches[:AMBIGUOUS_SHOWN])
         more = ", ..." if len(matches) > AMBIGUOUS_SHOWN else ""
         raise RunNotFoundError(
-            f"run_id: prefix {run_id!r} is ambiguous, it matches {shown}{more}; "
-            "give more characters"
+            f"{name}: prefix {given!r} is ambiguous, it matches {shown}{more}; give more characters"
         )
     return str(matches[0])

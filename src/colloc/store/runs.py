@@ -21,6 +21,7 @@ from sqlalchemy.engine import make_url
 from sqlalchemy.exc import ArgumentError, IntegrityError, NoSuchModuleError, SQLAlchemyError
 
 from colloc.store import schema
+from colloc.store.batches import BatchLog
 from colloc.store.errors import DuplicateRunError, StoreURLError, StoreWriteError
 from colloc.store.export import EXPORTERS, export_record
 from colloc.store.queries import delete_run, insert_run, resolve_run_id
@@ -156,7 +157,7 @@ class RunStore:
             schema.metadata.create_all(self._engine)
         else:
             found = set(inspect(self._engine).get_table_names())
-            missing = sorted(set(schema.metadata.tables) - found)
+            missing = sorted(set(schema.RUN_TABLES) - found)
             if missing:
                 raise StoreURLError(
                     f"url: the database at {self.url!r} holds no colloc runs (tables "
@@ -194,6 +195,11 @@ class RunStore:
                 f"url: the database at {self.url!r} cannot be written ({cause}); nothing was "
                 "computed: fix it, or pass another --db (or --no-store)"
             ) from error
+
+    @property
+    def batches(self) -> BatchLog:
+        """The record of the batches run against this database (:class:`BatchLog`)."""
+        return BatchLog(self._engine)
 
     def close(self) -> None:
         """Release the database connections."""
@@ -355,6 +361,7 @@ class RunStore:
         settings: Sequence[str] = DEFAULT_SETTING_COLUMNS,
         statistics: Sequence[str] = DEFAULT_STATISTIC_COLUMNS,
         kind: str | None = None,
+        batch: str | None = None,
     ) -> pd.DataFrame:
         """Summarise the stored runs, oldest first.
 
@@ -366,6 +373,8 @@ class RunStore:
             Solver statistics to show as columns (dotted keys as for ``settings``).
         kind : str or None, optional
             Only runs of this kind.
+        batch : str or None, optional
+            Only the runs of this batch (an id or unique prefix).
 
         Returns
         -------
@@ -374,10 +383,17 @@ class RunStore:
             (missing where a run lacks one), ``num_parameters`` and ``max_rel_error``, the
             largest ``|identified - known| / |known|`` over parameters with both values
             (NaN when there is none).
+
+        Raises
+        ------
+        RunNotFoundError
+            If ``batch`` names no recorded batch, or several.
         """
         query = select(schema.runs).order_by(schema.runs.c.created, schema.runs.c.run_id)
         if kind is not None:
             query = query.where(schema.runs.c.kind == kind)
+        if batch is not None:
+            query = query.where(schema.runs.c.run_id.in_(self.batches.run_ids(batch)))
         with self._engine.connect() as connection:
             runs = connection.execute(query).all()
             parameter_rows = connection.execute(

@@ -73,3 +73,40 @@ arrays = Table(
     Column("name", String(256), nullable=False),
     Column("data", LargeBinary, nullable=False),
 )
+
+# A batch (``colloc batch``): one row per batch, one per entry. The entry's run is named by
+# id, not by foreign key: deleting a run leaves the batch's history, and the entry is redone
+# when the batch runs again. Added after schema version 1 without changing it: the tables are
+# created on first write in an older database, and readers treat them as optional.
+batches = Table(
+    "colloc_batches",
+    metadata,
+    Column("batch_id", String(128), primary_key=True),
+    Column("created", DateTime(timezone=True), nullable=False, index=True),
+    Column("finished", DateTime(timezone=True), nullable=True),
+    Column("status", String(32), nullable=False),
+    Column("spec", Text, nullable=False),
+)
+
+batch_entries = Table(
+    "colloc_batch_entries",
+    metadata,
+    Column(
+        "batch_id",
+        String(128),
+        ForeignKey("colloc_batches.batch_id", ondelete="CASCADE"),
+        primary_key=True,
+    ),
+    Column("position", Integer, primary_key=True, autoincrement=False),
+    Column("kind", String(64), nullable=False),
+    Column("entry_key", String(128), nullable=False, index=True),
+    Column("settings", Text, nullable=False),
+    Column("status", String(32), nullable=False),
+    Column("run_id", String(128), nullable=True),
+    Column("output", Text, nullable=True),
+    Column("error", Text, nullable=True),
+    Column("seconds", Double, nullable=True),
+)
+
+#: Tables a database must hold to be read as colloc's (the batch tables are optional).
+RUN_TABLES = ("colloc_schema", "colloc_runs", "colloc_parameters", "colloc_arrays")

