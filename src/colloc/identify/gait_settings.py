@@ -99,12 +99,19 @@ class GaitIdentifySettings:
     seed: int = 0
     process_noise: tuple[float, float] | None = None
 
-    def problems(self) -> list[str]:
-        """Every problem with the settings (empty when valid); the trial is not read."""
+    def problems(self, *, require_trial: bool = True) -> list[str]:
+        """Every problem with the settings (empty when valid); the trial is not read.
+
+        Parameters
+        ----------
+        require_trial : bool, optional
+            False: a trial folder that does not exist yet is no problem (a batch makes it
+            before this run starts).
+        """
         out = []
         if not isinstance(self.trial, str | Path):
             out.append(f"trial: expected a directory path, found {self.trial!r}")
-        elif not Path(self.trial).is_dir():
+        elif require_trial and not Path(self.trial).is_dir():
             out.append(f"trial: expected an existing directory, found {str(self.trial)!r}")
         if not (_number(self.fit_fraction) and 0 < self.fit_fraction < 1):
             out.append(f"fit_fraction: expected a number in (0, 1), found {self.fit_fraction!r}")
