@@ -66,3 +66,23 @@ def test_every_python_example_in_the_readme_runs():
     np.testing.assert_allclose(gains, run.identified_gains, rtol=1e-5)
     assert isinstance(namespace["problem"], colloc.Problem)
     assert namespace["problem"].process_noise
+
+
+def test_the_readme_batch_file_is_valid_as_written(tmp_path, monkeypatch):
+    import yaml
+
+    from colloc.batch import expand_batch
+    from colloc.cli.batch import KINDS, build_tasks
+
+    (block,) = re.findall(r"```yaml\n(.*?)```", README.read_text(), flags=re.S)
+    monkeypatch.chdir(tmp_path)  # its relative paths land here
+    spec = expand_batch(yaml.safe_load(block), tuple(KINDS))
+    tasks, problems = build_tasks(spec.entries)
+    assert problems == []
+    assert [t.kind for t in tasks].count("pendulum") == 100
+    assert sorted(t.settings.seed for t in tasks if t.kind == "pendulum") == list(range(100))
+    simulations = {t.position: t for t in tasks if t.kind == "gait-simulate"}
+    for fit in (t for t in tasks if t.kind == "gait-identify"):  # each waits for its trial
+        (before,) = fit.after
+        assert simulations[before].settings.out.resolve() == fit.settings.trial.resolve()
+    assert spec.db == "sqlite:///noise-study.db"

@@ -342,6 +342,15 @@ def build_parser() -> argparse.ArgumentParser:
         "--out", type=Path, default=Path("results"), help="directory for plots and animation"
     )
     p.add_argument("--json", type=Path, default=None, help="write a machine-readable summary here")
+    p.add_argument(
+        "--repeat",
+        type=_positive_int,
+        default=None,
+        metavar="N",
+        help="run N noise realisations (seeds SEED .. SEED+N-1) as a batch on Dask and report "
+        "each gain's spread against its mean standard error",
+    )
+    _cluster_flags(p)
 
     g = sub.add_parser(
         "gait", help="planar walking: synthetic perturbed-walking trials, controller identification"
@@ -409,6 +418,8 @@ def build_parser() -> argparse.ArgumentParser:
 
     _identify_parser(gs, DEFAULT_URL)
 
+    _batch_parser(sub, DEFAULT_URL)
+
     c = sub.add_parser("cache", help="the build cache: where it is, what it holds; clear it")
     c.add_argument("cache_command", choices=("info", "clear"))
     c.add_argument("--dir", type=Path, default=None, help="cache directory (default: colloc's)")
@@ -421,6 +432,7 @@ def build_parser() -> argparse.ArgumentParser:
     after.add_argument("--db", default=argparse.SUPPRESS, help="results database URL")
     lst = rs.add_parser("list", help="list stored runs", parents=[after])
     lst.add_argument("--kind", default=None)
+    lst.add_argument("--batch", default=None, help="only the runs of this batch (id or prefix)")
     show = rs.add_parser("show", help="show one run (an id or a unique prefix)", parents=[after])
     show.add_argument("run_id")
     exp = rs.add_parser("export", help="export a run's arrays and parameters", parents=[after])
@@ -432,6 +444,50 @@ def build_parser() -> argparse.ArgumentParser:
     dele.add_argument("run_id", help=f"the id, or a unique prefix of >= {MIN_DELETE_PREFIX}")
     dele.add_argument("--yes", action="store_true", help="allow a shorter prefix")
     return parser
+
+
+def _cluster_flags(parser: argparse.ArgumentParser) -> None:
+    """``--workers`` and ``--scheduler``: where a batch runs."""
+    parser.add_argument(
+        "--workers",
+        type=_positive_int,
+        default=None,
+        help="workers of the local Dask cluster, one thread each (default: one per core)",
+    )
+    parser.add_argument(
+        "--scheduler",
+        default=None,
+        metavar="ADDRESS",
+        help="run on a running Dask cluster instead (e.g. tcp://host:8786); its workers must "
+        "reach the database and the files",
+    )
+
+
+def _batch_parser(sub: Any, default_url: str) -> None:
+    """``colloc batch [run] SPEC.yaml``, ``colloc batch report ID``, ``colloc batch list``."""
+    b = sub.add_parser(
+        "batch",
+        help="many runs at once from a YAML file, on Dask; their record and report",
+        description="colloc batch SPEC.yaml runs every entry of the file (the same as "
+        "'colloc batch run SPEC.yaml').",
+    )
+    bs = b.add_subparsers(dest="batch_command", required=True)
+    db = argparse.ArgumentParser(add_help=False)
+    db.add_argument(
+        "--db", default=None, help=f"results database URL (default: the file's, else {default_url})"
+    )
+    run = bs.add_parser("run", help="run a batch file", parents=[db])
+    run.add_argument("spec", type=Path, help="the batch file (YAML)")
+    run.add_argument(
+        "--check", action="store_true", help="check every entry and stop, running nothing"
+    )
+    _cluster_flags(run)
+    report = bs.add_parser("report", help="write a batch's tables and figures", parents=[db])
+    report.add_argument("batch_id", help="the id, or a unique prefix")
+    report.add_argument(
+        "--out", type=Path, default=None, help="folder (default: batch-report-<id prefix>)"
+    )
+    bs.add_parser("list", help="list recorded batches", parents=[db])
 
 
 def pendulum_checks(args: argparse.Namespace) -> tuple[Any, list[str]]:
@@ -491,6 +547,10 @@ def _pendulum(args: argparse.Namespace) -> int:
     from colloc.identify.summaries import write_json_atomic
 
     settings, problems = pendulum_checks(args)
+    if args.repeat is not None:
+        from colloc.cli.batch import pendulum_repeat
+
+        return pendulum_repeat(args, settings, problems)
     if _report_problems("colloc pendulum", problems):
         return 2
     needs = settings.estimated_needs()
@@ -562,7 +622,7 @@ def _runs(args: argparse.Namespace) -> int:
         return 2
     store = RunStore(args.db, create=False)  # reading (or deleting) creates nothing
     if args.runs_command == "list":
-        frame = store.list(kind=args.kind)
+        frame = store.list(kind=args.kind, batch=args.batch)
         if frame.empty and args.kind is not None:
             kinds = sorted(set(store.list()["kind"]))
             print(f"no runs of kind {args.kind!r} stored (kinds stored: {kinds})")
@@ -585,13 +645,17 @@ def _runs(args: argparse.Namespace) -> int:
     return 0
 
 
-def gait_identify_checks(args: argparse.Namespace) -> tuple[Any, list[str]]:
+def gait_identify_checks(
+    args: argparse.Namespace, *, require_trial: bool = True
+) -> tuple[Any, list[str]]:
     """The settings of ``colloc gait identify`` and every problem found before any work.
 
     Parameters
     ----------
     args : argparse.Namespace
         As :func:`build_parser` parses ``colloc gait identify ...``.
+    require_trial : bool, optional
+        False when the trial folder is made before the run (by a batch's simulation).
 
     Returns
     -------
@@ -621,7 +685,7 @@ def gait_identify_checks(args: argparse.Namespace) -> tuple[Any, list[str]]:
         process_noise=args.process_noise,
     )
     outputs = _output_problems(args.json, None if args.no_plots else args.out)
-    return settings, settings.problems() + outputs
+    return settings, settings.problems(require_trial=require_trial) + outputs
 
 
 def _gait_identify(args: argparse.Namespace) -> int:
@@ -762,7 +826,36 @@ def _cache(args: argparse.Namespace) -> int:
 
 
 GAIT_COMMANDS = {"simulate": _gait_simulate, "identify": _gait_identify}
-COMMANDS = {"pendulum": _pendulum, "gait": _gait, "runs": _runs, "cache": _cache}
+
+
+def _batch(args: argparse.Namespace) -> int:
+    from colloc.cli.batch import BATCH_COMMANDS
+
+    return BATCH_COMMANDS[args.batch_command](args)
+
+
+COMMANDS = {
+    "pendulum": _pendulum,
+    "gait": _gait,
+    "runs": _runs,
+    "cache": _cache,
+    "batch": _batch,
+}
+
+#: Subcommands of ``colloc batch``; anything else after it is a batch file to run.
+BATCH_SUBCOMMANDS = ("run", "report", "list")
+
+
+def _with_batch_run(argv: list[str]) -> list[str]:
+    """``colloc batch SPEC.yaml ...`` is ``colloc batch run SPEC.yaml ...``."""
+    if (
+        len(argv) >= 2
+        and argv[0] == "batch"
+        and argv[1] not in BATCH_SUBCOMMANDS
+        and not argv[1].startswith("-")
+    ):
+        return ["batch", "run", *argv[1:]]
+    return argv
 
 
 class _Terminated(Exception):
@@ -776,7 +869,7 @@ def _raise_terminated(signum: int, frame: Any) -> None:
 def main(argv: Sequence[str] | None = None) -> int:
     """Entry point of the ``colloc`` command; returns the exit status."""
     parser = build_parser()
-    args = parser.parse_args(argv)
+    args = parser.parse_args(_with_batch_run(list(sys.argv[1:] if argv is None else argv)))
     previous = None
     if threading.current_thread() is threading.main_thread():
         # a kill (SIGTERM) runs the same clean-ups as Ctrl-C: no .part files, no half results

@@ -1,0 +1,379 @@
+"""``colloc batch`` and ``colloc pendulum --repeat``: batch files to tasks, a progress bar.
+
+Each entry of a batch file is turned into the command line of its kind and checked by the
+same parser and checks as that command, so an entry accepts exactly the command's options and
+gets the same errors, named by the entry. Every problem of every entry is reported before
+anything runs.
+"""
+
+from __future__ import annotations
+
+import argparse
+import contextlib
+import io
+import math
+import os
+import sys
+import time
+from collections.abc import Callable
+from dataclasses import replace
+from pathlib import Path
+from typing import Any
+
+from colloc.cli import (
+    _report_problems,
+    build_parser,
+    gait_identify_checks,
+    gait_simulate_checks,
+    pendulum_checks,
+)
+
+#: Per kind: the command words before the options, its checks, its positional options.
+KINDS: dict[str, tuple[tuple[str, ...], Callable[..., tuple[Any, list[str]]], tuple[str, ...]]] = {
+    "pendulum": (("pendulum",), pendulum_checks, ()),
+    "gait-simulate": (("gait", "simulate"), gait_simulate_checks, ()),
+    "gait-identify": (("gait", "identify"), gait_identify_checks, ("trial",)),
+}
+
+#: Options a batch entry may not set: the batch decides them.
+BATCH_LEVEL = ("db", "no-store", "repeat", "workers", "scheduler")
+
+
+def entry_argv(kind: str, options: dict[str, Any]) -> list[str]:
+    """The command line of one batch entry.
+
+    Parameters
+    ----------
+    kind : str
+        A key of :data:`KINDS`.
+    options : dict
+        Option name (long form, dashes) -> value: ``True`` gives the bare flag, ``False`` and
+        ``None`` leave it out, a list is joined by commas.
+
+    Returns
+    -------
+    list of str
+    """
+    words, _, positional = KINDS[kind]
+    argv = list(words)
+    for key in positional:
+        if key in options:
+            argv.append(_text(options[key]))
+    for key, value in options.items():
+        if key in positional or value is None or value is False:
+            continue
+        argv.append(f"--{key}")
+        if value is not True:
+            argv.append(_text(value))
+    return argv
+
+
+def _text(value: Any) -> str:
+    if isinstance(value, list | tuple):
+        return ",".join(_text(v) for v in value)
+    return str(value)
+
+
+def _parse(argv: list[str]) -> tuple[argparse.Namespace | None, str | None]:
+    """Parse without exiting: the namespace, or argparse's error message."""
+    with contextlib.redirect_stderr(io.StringIO()) as err:
+        try:
+            return build_parser().parse_args(argv), None
+        except SystemExit:
+            lines = [line for line in err.getvalue().splitlines() if "error:" in line]
+            message = lines[-1].split("error:", 1)[1].strip() if lines else "invalid options"
+            return None, message
+
+
+def build_tasks(entries: list[Any]) -> tuple[list[Any], list[str]]:
+    """Tasks from a batch file's entries, and every problem of every entry.
+
+    Parameters
+    ----------
+    entries : list of colloc.batch.Entry
+
+    Returns
+    -------
+    tasks : list of colloc.batch.Task
+        Complete only when ``problems`` is empty.
+    problems : list of str
+        Each naming its entry (``runs[i] (kind, entry n)``).
+    """
+    from colloc.batch.tasks import Task, folder_digest, task_key
+
+    problems: list[str] = []
+    tasks: list[Task] = []
+    made: dict[Path, Task] = {}  # trial folders written by the batch's simulations
+    writes: dict[Path, int] = {}
+    for entry in entries:
+        where = entry.where()
+        forbidden = [k for k in entry.options if k in BATCH_LEVEL]
+        if forbidden:
+            problems.append(
+                f"{where}: {forbidden} are set for the whole batch (colloc batch --db, "
+                "--workers, --scheduler), not per entry"
+            )
+            continue
+        args, error = _parse(entry_argv(entry.kind, entry.options))
+        if args is None:
+            problems.append(f"{where}: {error}")
+            continue
+        checks = KINDS[entry.kind][1]
+        producer = None
+        if entry.kind == "gait-identify":
+            producer = made.get(Path(args.trial).resolve())
+            settings, found = checks(args, require_trial=producer is None)
+        else:
+            settings, found = checks(args)
+        problems += [f"{where}: {p}" for p in found]
+        task = _task(entry, args, settings)
+        if entry.kind == "gait-simulate":
+            made[Path(settings.out).resolve()] = task
+        if producer is not None:
+            inputs: dict[str, Any] = {"trial_from": producer.key}
+            task = replace(task, after=(producer.position,))
+        elif entry.kind == "gait-identify":
+            inputs = {"trial": folder_digest(args.trial)}
+        else:
+            inputs = {}
+        task = replace(task, key=task_key(entry.kind, _plain(settings), inputs))
+        for path in _written(task):
+            if path in writes:
+                problems.append(
+                    f"{where}: writes into {str(path)!r} as entry {writes[path]} does; give "
+                    "each entry its own (e.g. out: 'results/seed-{seed}')"
+                )
+            writes.setdefault(path, entry.position)
+        tasks.append(task)
+    return tasks, problems
+
+
+def _task(entry: Any, args: argparse.Namespace, settings: Any) -> Any:
+    from colloc.batch.tasks import Task
+
+    if entry.kind == "pendulum":
+        plots = args.plot or args.animate
+        return Task(
+            entry.position,
+            entry.kind,
+            settings,
+            key="",
+            out=args.out if plots else None,
+            plot=args.plot,
+            animate=args.animate,
+            json=args.json,
+        )
+    if entry.kind == "gait-identify":
+        return Task(
+            entry.position,
+            entry.kind,
+            settings,
+            key="",
+            out=None if args.no_plots else args.out,
+            plot=not args.no_plots,
+            json=args.json,
+        )
+    return Task(entry.position, entry.kind, settings, key="", out=Path(settings.out))
+
+
+def _written(task: Any) -> list[Path]:
+    paths = [task.json] if task.json is not None else []
+    if task.out is not None:
+        paths.append(task.out)
+    return [Path(p).resolve() for p in paths]
+
+
+def _plain(settings: Any) -> dict[str, Any]:
+    plain = settings.to_dict()
+    plain.pop("trial", None)  # the trial enters the key by its content, not its path
+    return plain
+
+
+class _Progress:
+    """A tqdm bar over the runs: done / failed / skipped, elapsed and remaining."""
+
+    def __init__(self) -> None:
+        self.bar: Any = None
+        self.counts = {"done": 0, "failed": 0, "skipped": 0}
+        self.failures: list[Any] = []
+
+    def start(self, to_run: int, skipped: int) -> None:
+        from tqdm import tqdm
+
+        if skipped:
+            print(f"{skipped} entries already done (runs stored): skipped", flush=True)
+        self.bar = tqdm(total=to_run, unit="run", file=sys.stderr, dynamic_ncols=True)
+
+    def result(self, result: Any) -> None:
+        self.counts[result.status] = self.counts.get(result.status, 0) + 1
+        if result.status == "failed":
+            self.failures.append(result)
+        if result.status == "skipped" or self.bar is None:
+            return
+        self.bar.set_postfix(done=self.counts["done"], failed=self.counts["failed"], refresh=False)
+        self.bar.update(1)
+
+    def close(self) -> None:
+        if self.bar is not None:
+            self.bar.close()
+
+
+def _open_batch_store(url: str) -> Any:
+    from colloc.store import RunStore
+
+    store = RunStore(url)
+    store.check_writable()
+    return store
+
+
+def _execute(
+    tasks: list[Any], url: str, spec: dict[str, Any], args: argparse.Namespace
+) -> tuple[Any, _Progress]:
+    from colloc.batch.execute import run_batch
+
+    progress = _Progress()
+    start = time.perf_counter()
+    try:
+        outcome = run_batch(
+            tasks,
+            url,
+            spec=spec,
+            workers=args.workers,
+            scheduler=args.scheduler,
+            on_start=progress.start,
+            on_result=progress.result,
+        )
+    finally:
+        progress.close()
+    wall = time.perf_counter() - start
+    ran = [r for r in outcome.results.values() if r.status != "skipped"]
+    busy = sum(r.seconds for r in ran)
+    print(
+        f"batch {outcome.batch_id[:12]}: {outcome.count('done')} done, "
+        f"{outcome.count('failed')} failed, {outcome.count('skipped')} skipped; wall "
+        f"{wall:.1f} s on {outcome.workers} workers, {busy:.1f} s of runs "
+        f"(sum of run times / workers / wall = "
+        f"{busy / max(outcome.workers, 1) / wall if wall > 0 else math.nan:.2f})"
+    )
+    for failure in progress.failures:
+        entry = tasks[failure.position]
+        print(f"  failed: entry {failure.position} ({entry.kind}): {failure.error}")
+    return outcome, progress
+
+
+def _batch_run(args: argparse.Namespace) -> int:
+    from colloc.batch.spec import BatchSpecError, read_batch_spec
+    from colloc.store import DEFAULT_URL
+
+    try:
+        spec = read_batch_spec(args.spec, tuple(KINDS))
+        file_problems: list[str] = []
+    except BatchSpecError as error:
+        if error.partial is None:
+            raise
+        spec, file_problems = error.partial, error.problems
+    tasks, problems = build_tasks(spec.entries)
+    problems = file_problems + problems
+    if spec.workers is not None and args.workers is None:
+        args.workers = spec.workers
+    url = args.db or spec.db or DEFAULT_URL
+    if problems:
+        for line in problems:
+            print(f"colloc batch: error: {line}", file=sys.stderr)
+        print(
+            f"colloc batch: {len(problems)} problem(s) in {len(spec.entries)} entries; "
+            "nothing was run",
+            file=sys.stderr,
+        )
+        return 2
+    if args.check:
+        print(f"{args.spec}: {len(tasks)} entries, all valid")
+        return 0
+    _open_batch_store(url).close()
+    source = {"file": os.fspath(args.spec), "spec": spec.source}
+    outcome, _ = _execute(tasks, url, source, args)
+    print(f"report: colloc batch report {outcome.batch_id[:12]} --db {url}")
+    return 1 if outcome.count("failed") else 0
+
+
+def pendulum_repeat(args: argparse.Namespace, settings: Any, problems: list[str]) -> int:
+    """``colloc pendulum ... --repeat N``: N seeds as one batch, then the per-gain report.
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+    settings : PendulumSettings
+        Of the first seed.
+    problems : list of str
+        Found by :func:`colloc.cli.pendulum_checks`.
+
+    Returns
+    -------
+    int
+        The exit status.
+    """
+    from colloc.batch.report import pendulum_table, write_batch_report
+    from colloc.batch.tasks import Task, task_key
+
+    unsupported = [
+        f"{flag}: not with --repeat (the batch report goes to --out)"
+        for flag, given in (("-p/--plot", args.plot), ("-a/--animate", args.animate))
+        if given
+    ]
+    if args.json is not None:
+        unsupported.append("--json: not with --repeat (the batch report goes to --out)")
+    if args.no_store:
+        unsupported.append("--no-store: --repeat stores every run (the batch needs them)")
+    if args.scheduler is None and args.workers is not None and args.workers > 64:
+        unsupported.append(f"--workers {args.workers}: at most 64 local workers")
+    if _report_problems("colloc pendulum", problems + unsupported):
+        return 2
+    tasks = []
+    for i in range(args.repeat):
+        seeded = replace(settings, seed=settings.seed + i)
+        tasks.append(Task(i, "pendulum", seeded, key=task_key("pendulum", seeded.to_dict(), {})))
+    _open_batch_store(args.db).close()
+    spec = {"command": "colloc pendulum --repeat", "repeat": args.repeat, **settings.to_dict()}
+    outcome, _ = _execute(tasks, args.db, spec, args)
+    from colloc.store import RunStore
+
+    with RunStore(args.db) as store:
+        run_ids = store.batches.run_ids(outcome.batch_id)
+        table = pendulum_table(store, run_ids)
+        folder = args.out / f"batch-{outcome.batch_id[:12]}"
+        written = write_batch_report(store, outcome.batch_id, folder)
+    if not table.empty:
+        shown = table[["gain", "known", "mean", "spread", "mean_se", "spread_over_se"]]
+        print(shown.to_string(index=False, float_format=lambda v: f"{v:.5g}"))
+        print("spread_over_se near 1: the reported standard errors match the scatter")
+    print(f"report -> {folder} ({len(written)} files)")
+    return 1 if outcome.count("failed") else 0
+
+
+def _batch_report(args: argparse.Namespace) -> int:
+    from colloc.batch.report import write_batch_report
+    from colloc.store import DEFAULT_URL, RunStore
+
+    with RunStore(args.db or DEFAULT_URL, create=False) as store:
+        full_id = store.batches.resolve(args.batch_id)
+        folder = args.out or Path(f"batch-report-{full_id[:12]}")
+        for path in write_batch_report(store, full_id, folder):
+            print(path)
+    return 0
+
+
+def _batch_list(args: argparse.Namespace) -> int:
+    from colloc.store import DEFAULT_URL, RunStore
+
+    with RunStore(args.db or DEFAULT_URL, create=False) as store:
+        frame = store.batches.list()
+    print("no batches recorded" if frame.empty else frame.to_string(index=False))
+    return 0
+
+
+#: The handler of each ``colloc batch`` subcommand.
+BATCH_COMMANDS: dict[str, Callable[[argparse.Namespace], int]] = {
+    "run": _batch_run,
+    "report": _batch_report,
+    "list": _batch_list,
+}

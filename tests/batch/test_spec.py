@@ -1,0 +1,186 @@
+"""Batch files: sweeps, templates, and every problem of every entry reported at once."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+
+from colloc.batch import BatchSpecError, expand_batch, read_batch_spec, task_key
+from colloc.cli import build_parser, pendulum_checks
+from colloc.cli.batch import KINDS, build_tasks, entry_argv
+
+KIND_NAMES = tuple(KINDS)
+
+
+def test_sweeps_expand_to_every_combination_with_templates_filled(tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    for name in ("b", "a"):
+        (tmp_path / f"trial-{name}").mkdir()
+    raw = {
+        "runs": [
+            {
+                "kind": "pendulum",
+                "seed": {"range": [0, 6, 2]},
+                "numlinks": {"values": [1, 2]},
+                "out": "res/n{numlinks}-s{seed}",
+            },
+            {"kind": "gait-identify", "trial": {"glob": "trial-*"}, "out": "{trial}-fit"},
+        ],
+        "workers": 2,
+    }
+    spec = expand_batch(raw, KIND_NAMES)
+    pendulum = [e for e in spec.entries if e.kind == "pendulum"]
+    assert [(e.options["seed"], e.options["numlinks"]) for e in pendulum] == [
+        (0, 1),
+        (0, 2),
+        (2, 1),
+        (2, 2),
+        (4, 1),
+        (4, 2),
+    ]
+    assert pendulum[3].options["out"] == "res/n2-s2"
+    gait = [e for e in spec.entries if e.kind == "gait-identify"]
+    assert [e.options["trial"] for e in gait] == ["trial-a", "trial-b"]  # sorted matches
+    assert gait[0].options["out"] == "trial-a-fit"
+    assert [e.position for e in spec.entries] == list(range(8)) and spec.workers == 2
+
+
+def test_every_problem_of_the_file_is_listed_at_once():
+    raw = {
+        "runs": [
+            {"kind": "rocket"},
+            {"kind": "pendulum", "seed": {"range": [0]}},
+            {"kind": "pendulum", "seed": {"every": 2}},
+            {"kind": "pendulum", "out": "r-{missing}"},
+            {"kind": "pendulum", "trial": {"glob": "/nonexistent/*"}},
+            {"kind": "pendulum", "seed": 3},
+            "numlinks: 1",
+        ],
+        "workers": 0,
+        "dbb": "x",
+    }
+    with pytest.raises(BatchSpecError) as caught:
+        expand_batch(raw, KIND_NAMES)
+    text = str(caught.value)
+    for expected in (
+        "'dbb': unknown key",
+        "workers: expected an integer >= 1, found 0",
+        "runs[0].kind: expected one of ['pendulum', 'gait-simulate', 'gait-identify'], "
+        "found 'rocket'",
+        "runs[1].seed: range expects [start, stop]",
+        "runs[2].seed: a sweep is a mapping with one key of ['range', 'values', 'glob']",
+        "runs[3].out: the template 'r-{missing}' cannot be filled",
+        "runs[4].trial: the sweep {'glob': '/nonexistent/*'} gives no values",
+        "runs[6]: expected a mapping of options",
+    ):
+        assert expected in text
+    assert len(caught.value.problems) == 8
+    # only the sound run expanded: no follow-on problems from the others
+    assert [e.options for e in caught.value.partial.entries] == [{"seed": 3}]
+
+
+@pytest.mark.parametrize(
+    ("content", "message"),
+    [
+        (b"runs: [\n", "not valid YAML"),
+        ("runs:\n  - kind: pendulum\n    note: J\xfcrgen\n".encode("latin-1"), "not UTF-8"),
+        (b"- kind: pendulum\n", "expected a mapping with a list 'runs', found list"),
+        (b"runs: []\n", "runs: expected a non-empty list"),
+        (b"!!python/object:os.system {}\n", "not valid YAML"),  # safe_load refuses objects
+    ],
+)
+def test_a_bad_file_names_itself_and_what_is_wrong(tmp_path, content, message):
+    path = tmp_path / "batch.yaml"
+    path.write_bytes(content)
+    with pytest.raises(BatchSpecError, match=message) as caught:
+        read_batch_spec(path, KIND_NAMES)
+    assert str(path) in str(caught.value)
+
+
+def test_entry_command_lines_are_those_of_the_command():
+    assert entry_argv(
+        "pendulum", {"numlinks": 2, "sensornoise": True, "plot": False, "seed": None}
+    ) == ["pendulum", "--numlinks", "2", "--sensornoise"]
+    assert entry_argv("gait-identify", {"trial": "t1", "track": ["angles", "trunk"]}) == [
+        "gait",
+        "identify",
+        "t1",
+        "--track",
+        "angles,trunk",
+    ]
+
+
+def test_entries_get_the_commands_own_checks_named_by_entry(tmp_path):
+    spec = expand_batch(
+        {
+            "runs": [
+                {"kind": "pendulum", "duration": 0.1, "out": str(tmp_path)},
+                {"kind": "pendulum", "numlinks": "two"},
+                {"kind": "pendulum", "no-store": True},
+            ]
+        },
+        KIND_NAMES,
+    )
+    tasks, problems = build_tasks(spec.entries)
+    _, direct = pendulum_checks(build_parser().parse_args(["pendulum", "--duration", "0.1"]))
+    assert problems[0] == f"runs[0] (pendulum, entry 0): {direct[0]}"
+    assert problems[1].startswith("runs[1] (pendulum, entry 1): argument -n/--numlinks")
+    assert "['no-store'] are set for the whole batch" in problems[2]
+    assert len(problems) == 3 and len(tasks) == 1
+
+
+def test_a_simulated_trial_feeds_the_identification_that_reads_it(tmp_path):
+    trial = tmp_path / "trials" / "seed-1"
+    spec = expand_batch(
+        {
+            "runs": [
+                {"kind": "gait-simulate", "duration": 5, "seed": 1, "out": str(trial)},
+                {"kind": "gait-identify", "trial": str(trial), "no-plots": True},
+                {"kind": "gait-identify", "trial": str(tmp_path / "absent"), "no-plots": True},
+            ]
+        },
+        KIND_NAMES,
+    )
+    tasks, problems = build_tasks(spec.entries)
+    assert tasks[1].after == (0,)  # runs once the simulation has written the trial
+    assert problems == [
+        f"runs[2] (gait-identify, entry 2): trial: expected an existing directory, found "
+        f"{str(tmp_path / 'absent')!r}"
+    ]
+
+
+def test_two_entries_writing_the_same_place_are_refused(tmp_path):
+    spec = expand_batch(
+        {
+            "runs": [
+                {
+                    "kind": "pendulum",
+                    "seed": {"range": [0, 2]},
+                    "plot": True,
+                    "out": str(tmp_path / "figures"),
+                }
+            ]
+        },
+        KIND_NAMES,
+    )
+    _, problems = build_tasks(spec.entries)
+    assert problems == [
+        f"runs[0] (pendulum, entry 1): writes into {str(tmp_path / 'figures')!r} as entry 0 "
+        "does; give each entry its own (e.g. out: 'results/seed-{seed}')"
+    ]
+
+
+def test_task_keys_follow_what_determines_the_run():
+    a = task_key("pendulum", {"seed": 1, "num_links": 1}, {})
+    assert a == task_key("pendulum", {"num_links": 1, "seed": 1}, {})  # order-free
+    assert a != task_key("pendulum", {"seed": 2, "num_links": 1}, {})
+    assert a != task_key("pendulum", {"seed": 1, "num_links": 1}, {"trial": "x"})
+    assert a != task_key("gait-identify", {"seed": 1, "num_links": 1}, {})
+
+
+def test_batch_paths_in_the_spec_are_relative_to_the_working_folder(tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "t").mkdir()
+    spec = expand_batch({"runs": [{"kind": "gait-identify", "trial": {"glob": "t"}}]}, KIND_NAMES)
+    assert Path(spec.entries[0].options["trial"]) == Path("t")
