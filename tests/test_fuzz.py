@@ -331,3 +331,78 @@ def test_fuzzed_belt_and_force_records_give_arrays_or_one_error_naming_the_file(
         for array in arrays:
             assert isinstance(array, np.ndarray) and np.all(np.isfinite(array))
     assert time.perf_counter() - started < CASE_SECONDS
+
+
+BATCH_VALUES = [
+    1,
+    0,
+    -1,
+    2.5,
+    "abc",
+    "",
+    None,
+    True,
+    [1, 2],
+    {"range": [0, 2]},
+    {"values": []},
+    {"glob": "*"},
+    {"range": "x"},
+    {"bogus": 1},
+    "{seed}",
+    "{nope}",
+    1e300,
+]
+BATCH_KEYS = [
+    "numlinks",
+    "duration",
+    "seed",
+    "sensornoise",
+    "out",
+    "trial",
+    "noise",
+    "db",
+    "bogus",
+    "points",
+    "samplerate",
+    "json",
+    "kind",
+    3,
+]
+
+
+@pytest.mark.parametrize("seed", range(150))
+def test_fuzzed_batch_files_give_tasks_or_problems_never_another_exception(
+    seed, tmp_path, monkeypatch
+):
+    import yaml
+
+    from colloc.batch import BatchSpecError, read_batch_spec
+    from colloc.cli.batch import KINDS, build_tasks
+
+    monkeypatch.chdir(tmp_path)
+    rng = np.random.default_rng(21000 + seed)
+    runs = []
+    for _ in range(int(rng.integers(0, 4))):
+        run = {
+            "kind": ["pendulum", "gait-simulate", "gait-identify", "rocket"][int(rng.integers(4))]
+        }
+        for _ in range(int(rng.integers(0, 5))):
+            key = BATCH_KEYS[int(rng.integers(len(BATCH_KEYS)))]
+            run[key] = BATCH_VALUES[int(rng.integers(len(BATCH_VALUES)))]
+        runs.append(run)
+    document = {"runs": runs} if rng.random() < 0.9 else runs
+    path = tmp_path / "batch.yaml"
+    path.write_text(yaml.safe_dump(document))
+    started = time.perf_counter()
+    try:
+        spec = read_batch_spec(path, tuple(KINDS))
+        entries, problems = spec.entries, []
+    except BatchSpecError as error:
+        assert error.problems and all(isinstance(p, str) and p for p in error.problems)
+        entries, problems = (error.partial.entries if error.partial else []), error.problems
+    tasks, found = build_tasks(entries)
+    assert all(isinstance(p, str) and p.startswith("runs[") for p in found)
+    made = {task.position for task in tasks}
+    for entry in entries:  # each entry became a task, or a problem names it
+        assert entry.position in made or any(f"entry {entry.position})" in p for p in found)
+    assert time.perf_counter() - started < CASE_SECONDS

@@ -84,5 +84,7 @@ def test_the_readme_batch_file_is_valid_as_written(tmp_path, monkeypatch):
     simulations = {t.position: t for t in tasks if t.kind == "gait-simulate"}
     for fit in (t for t in tasks if t.kind == "gait-identify"):  # each waits for its trial
         (before,) = fit.after
-        assert simulations[before].settings.out.resolve() == fit.settings.trial.resolve()
+        assert (
+            simulations[before].settings.out / "trial"
+        ).resolve() == fit.settings.trial.resolve()
     assert spec.db == "sqlite:///noise-study.db"

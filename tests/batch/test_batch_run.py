@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import contextlib
 import os
+import re
 import signal
 import sqlite3
 import textwrap
@@ -146,6 +147,8 @@ def test_the_repeat_flag_runs_seeds_as_a_batch_and_reports_spread_against_se(tmp
     assert code == 0, capsys.readouterr().err
     out = capsys.readouterr().out
     assert "3 done, 0 failed, 0 skipped" in out and "spread_over_se" in out
+    built = re.search(r"build cache: (\d) of 3 runs found their problem built", out)
+    assert built and int(built.group(1)) >= 1  # at most one build per worker
     with RunStore(db) as store:
         assert sorted(store.get(r).settings["seed"] for r in store.list()["run_id"]) == [5, 6, 7]
     assert time.perf_counter() - started < 120

@@ -136,8 +136,9 @@ def test_a_simulated_trial_feeds_the_identification_that_reads_it(tmp_path):
         {
             "runs": [
                 {"kind": "gait-simulate", "duration": 5, "seed": 1, "out": str(trial)},
-                {"kind": "gait-identify", "trial": str(trial), "no-plots": True},
+                {"kind": "gait-identify", "trial": str(trial / "trial"), "no-plots": True},
                 {"kind": "gait-identify", "trial": str(tmp_path / "absent"), "no-plots": True},
+                {"kind": "gait-identify", "trial": str(trial), "no-plots": True},
             ]
         },
         KIND_NAMES,
@@ -146,7 +147,9 @@ def test_a_simulated_trial_feeds_the_identification_that_reads_it(tmp_path):
     assert tasks[1].after == (0,)  # runs once the simulation has written the trial
     assert problems == [
         f"runs[2] (gait-identify, entry 2): trial: expected an existing directory, found "
-        f"{str(tmp_path / 'absent')!r}"
+        f"{str(tmp_path / 'absent')!r}",
+        f"runs[3] (gait-identify, entry 3): trial {str(trial)!r} is the output folder of the "
+        f"simulation of entry 0; its trial is {str(trial / 'trial')!r}",
     ]
 
 

@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import logging
 import os
+import warnings
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any
@@ -164,7 +165,13 @@ def _run_on_dask(
     cluster = None
     if scheduler is None:
         # Not daemons: a worker may fork the watched IPOPT child (colloc.solve.watchdog).
-        with dask.config.set({"distributed.worker.daemon": False}):
+        # The scheduler's HTTP endpoint moves off a busy port 8787 with a warning that means
+        # nothing here (two batches at once); the dashboard itself is off.
+        with (
+            dask.config.set({"distributed.worker.daemon": False}),
+            warnings.catch_warnings(),
+        ):
+            warnings.filterwarnings("ignore", message="Port .* is already in use")
             cluster = LocalCluster(
                 n_workers=workers or default_workers(),
                 threads_per_worker=1,

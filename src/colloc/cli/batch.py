@@ -100,10 +100,12 @@ def build_tasks(entries: list[Any]) -> tuple[list[Any], list[str]]:
         Each naming its entry (``runs[i] (kind, entry n)``).
     """
     from colloc.batch.tasks import Task, folder_digest, task_key
+    from colloc.gait.outputs import TRIAL_DIR
 
     problems: list[str] = []
     tasks: list[Task] = []
     made: dict[Path, Task] = {}  # trial folders written by the batch's simulations
+    outs: dict[Path, int] = {}  # their output folders
     writes: dict[Path, int] = {}
     for entry in entries:
         where = entry.where()
@@ -123,12 +125,19 @@ def build_tasks(entries: list[Any]) -> tuple[list[Any], list[str]]:
         if entry.kind == "gait-identify":
             producer = made.get(Path(args.trial).resolve())
             settings, found = checks(args, require_trial=producer is None)
+            simulated = outs.get(Path(args.trial).resolve())
+            if simulated is not None:
+                found = [p for p in found if not p.startswith("trial:")] + [
+                    f"trial {str(args.trial)!r} is the output folder of the simulation of "
+                    f"entry {simulated}; its trial is {str(Path(args.trial) / TRIAL_DIR)!r}"
+                ]
         else:
             settings, found = checks(args)
         problems += [f"{where}: {p}" for p in found]
         task = _task(entry, args, settings)
-        if entry.kind == "gait-simulate":
-            made[Path(settings.out).resolve()] = task
+        if entry.kind == "gait-simulate":  # it writes its trial into out/trial
+            made[(Path(settings.out) / TRIAL_DIR).resolve()] = task
+            outs[Path(settings.out).resolve()] = entry.position
         if producer is not None:
             inputs: dict[str, Any] = {"trial_from": producer.key}
             task = replace(task, after=(producer.position,))
@@ -255,6 +264,12 @@ def _execute(
         f"(sum of run times / workers / wall = "
         f"{busy / max(outcome.workers, 1) / wall if wall > 0 else math.nan:.2f})"
     )
+    known = [r.cache_hit for r in ran if r.cache_hit is not None]
+    if known:
+        print(
+            f"build cache: {sum(known)} of {len(known)} runs found their problem built "
+            f"({len(known) - sum(known)} built it)"
+        )
     for failure in progress.failures:
         entry = tasks[failure.position]
         print(f"  failed: entry {failure.position} ({entry.kind}): {failure.error}")
