@@ -220,7 +220,8 @@ def _gait_figure(table: pd.DataFrame, out: Path) -> list[Path]:
     from colloc.plot.common import new_figure, save_figure
 
     fig = new_figure(2, width=7.0, height_per_axis=2.6)
-    labels = [Path(str(t)).name for t in table["trial"]]
+    # the trial folder's last two parts: simulated trials all end in ".../trial"
+    labels = ["/".join(Path(str(t)).parts[-2:]) for t in table["trial"]]
     x = np.arange(len(table))
     top, bottom = fig.axes
     for column in ("K_relative_error", "Tstar_relative_error"):
