@@ -267,9 +267,9 @@ def _run_gait_simulate(task: Task, url: str | None) -> TaskResult:
     return TaskResult(task.position, "done", output=folder, notes=tuple(result.notes))
 
 
-#: The runner of each kind of task.
 RUNNERS: dict[str, Callable[[Task, str | None], TaskResult]] = {
     "pendulum": _run_pendulum,
     "gait-identify": _run_gait_identify,
     "gait-simulate": _run_gait_simulate,
 }
+"""The runner of each kind of task."""

@@ -46,8 +46,6 @@ def _direct(
     return direct()
 
 
-#: The ``-i`` choices: known = the truth; close = K + 0.5|K| N(0, 1); random = 100 N(0, 1);
-#: direct = least squares of the equations of motion on smoothed measurements.
 GAIN_GUESSES: dict[str, GainGuess] = {
     "known": _known,
     "zero": _zero,
@@ -56,3 +54,5 @@ GAIN_GUESSES: dict[str, GainGuess] = {
     "random": _random,
     "direct": _direct,
 }
+"""The ``-i`` choices: known = the truth; close = K + 0.5|K| N(0, 1); random = 100 N(0, 1);
+direct = least squares of the equations of motion on smoothed measurements."""

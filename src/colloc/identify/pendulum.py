@@ -32,10 +32,10 @@ from colloc.nlp.uncertainty import ParameterUncertainty, parameter_uncertainty
 from colloc.simulate import ImplicitODE, SampledNoise, SumOfSines, add_sensor_noise
 from colloc.transcription import BackwardEuler, HermiteSimpson, Midpoint, Scheme, Trapezoidal
 
-#: The schemes by their command-line names (:data:`SCHEME_NAMES`).
 SCHEMES: dict[str, type[Scheme]] = dict(
     zip(SCHEME_NAMES, (Midpoint, BackwardEuler, Trapezoidal, HermiteSimpson), strict=True)
 )
+"""The schemes by their command-line names (:data:`SCHEME_NAMES`)."""
 
 Progress = Callable[[str, str], None]
 

@@ -16,8 +16,8 @@ from colloc.identify.guesses import GAIN_GUESSES
 #: The standard-error methods of :func:`colloc.parameter_uncertainty`, honest one first.
 UNCERTAINTY_METHODS = ("sandwich", "kkt")
 
-#: Command-line names of the collocation schemes, in the order ``--help`` lists them.
 SCHEME_NAMES = ("midpoint", "backward-euler", "trapezoidal", "hermite-simpson")
+"""Command-line names of the collocation schemes, in the order ``--help`` lists them."""
 
 #: Kane's derivation of the n-link cart pendulum took 40 s at n = 32 and grows as n^2.9
 #: (measured 2026-11-23: 0.9 s at 8, 5.7 s at 16, 17 s at 24, 40 s at 32 links).
