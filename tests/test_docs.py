@@ -16,6 +16,7 @@ import subprocess
 import sys
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -144,6 +145,36 @@ def test_the_own_model_example_recovers_its_parameters(tmp_path):
     assert (tmp_path / "own-model.png").stat().st_size > 10_000
 
 
+def test_the_unknown_input_example_recovers_the_parameters_and_the_force(tmp_path):
+    sys.path.insert(0, str(DOCS / "examples"))
+    try:
+        import unknown_input
+    finally:
+        sys.path.pop(0)
+    out = unknown_input.main(tmp_path, duration=6.0)
+    estimate, applied = out.pop("force")
+    for name, (true, found, error) in out.items():
+        assert abs(found - true) < 4 * error, name
+    rms = np.sqrt(np.mean((estimate - applied) ** 2))
+    assert rms < np.sqrt(0.2) * np.sqrt(np.mean(applied**2))  # >= 80 % of its variance
+    assert (tmp_path / "unknown-input.png").stat().st_size > 10_000
+
+
+GAIT_FIGURES = ("gait-schedule-tstar.png", "gait-schedule-stiffness.png")
+
+
+def test_the_gait_example_draws_a_trials_schedule(tmp_path):
+    sys.path.insert(0, str(DOCS / "examples"))
+    try:
+        import gait_schedule
+    finally:
+        sys.path.pop(0)
+    trial = ROOT / "tests" / "identify" / "data" / "gait_trial_p20"
+    written = gait_schedule.main(trial, tmp_path)
+    assert sorted(p.name for p in written) == sorted(GAIT_FIGURES)
+    assert all(p.stat().st_size > 10_000 for p in written)
+
+
 def test_the_pendulum_example_draws_the_figures_the_pages_show(tmp_path, capsys):
     sys.path.insert(0, str(DOCS / "examples"))
     try:
@@ -154,6 +185,6 @@ def test_the_pendulum_example_draws_the_figures_the_pages_show(tmp_path, capsys)
     shown = set()
     for page in DOCS.glob("*.md"):
         shown |= set(re.findall(r"\(figures/([\w.-]+\.png)\)", page.read_text()))
-    assert shown - {"own-model.png"} <= written
+    assert shown - {"own-model.png", "unknown-input.png", *GAIT_FIGURES} <= written
     assert all((DOCS / "figures" / name).is_file() for name in shown)  # committed for the site
     assert "k_0_0: known" in capsys.readouterr().out
