@@ -1,7 +1,9 @@
 """The docs site: built in strict mode, every public name in the reference with its docstring,
 every example run.
 
-The build is ``mkdocs build --strict`` (``./dev docs``) into a temporary folder: a broken
+The examples are also the gallery's tests of a plain parameter estimation (a cubic spring,
+against SciPy's ``solve_ivp``) and of an unknown input trajectory. The build is
+``mkdocs build --strict`` (``./dev docs``) into a temporary folder: a broken
 link, a reference that does not resolve or any other warning fails it. The examples in
 ``docs/examples`` run at small sizes and must write the figures the pages show.
 """
@@ -139,9 +141,10 @@ def test_the_own_model_example_recovers_its_parameters(tmp_path):
         import own_model
     finally:
         sys.path.pop(0)
-    table = own_model.main(tmp_path, duration=6.0)
+    table = own_model.main(tmp_path, duration=10.0)
     for name, (true, estimate, error) in table.items():
-        assert abs(estimate - true) < 4 * error, name
+        assert abs(estimate - true) < 3 * error, name
+        assert error < 0.05 * true  # the record determines each of them
     assert (tmp_path / "own-model.png").stat().st_size > 10_000
 
 
@@ -151,10 +154,11 @@ def test_the_unknown_input_example_recovers_the_parameters_and_the_force(tmp_pat
         import unknown_input
     finally:
         sys.path.pop(0)
-    out = unknown_input.main(tmp_path, duration=6.0)
+    out = unknown_input.main(tmp_path, duration=10.0)
     estimate, applied = out.pop("force")
     for name, (true, found, error) in out.items():
-        assert abs(found - true) < 4 * error, name
+        assert abs(found - true) < 3 * error, name
+        assert error < 0.1 * true
     rms = np.sqrt(np.mean((estimate - applied) ** 2))
     assert rms < np.sqrt(0.2) * np.sqrt(np.mean(applied**2))  # >= 80 % of its variance
     assert (tmp_path / "unknown-input.png").stat().st_size > 10_000
