@@ -187,3 +187,23 @@ def test_batch_paths_in_the_spec_are_relative_to_the_working_folder(tmp_path, mo
     (tmp_path / "t").mkdir()
     spec = expand_batch({"runs": [{"kind": "gait-identify", "trial": {"glob": "t"}}]}, KIND_NAMES)
     assert Path(spec.entries[0].options["trial"]) == Path("t")
+
+
+def test_an_identification_of_a_batch_made_trial_is_keyed_by_the_simulation(tmp_path):
+    """Change the simulation and the identification of its trial is new work too."""
+    trial = tmp_path / "t"
+    keys = []
+    for seed in (1, 2):
+        spec = expand_batch(
+            {
+                "runs": [
+                    {"kind": "gait-simulate", "duration": 5, "seed": seed, "out": str(trial)},
+                    {"kind": "gait-identify", "trial": str(trial / "trial"), "no-plots": True},
+                ]
+            },
+            KIND_NAMES,
+        )
+        tasks, problems = build_tasks(spec.entries)
+        assert problems == []
+        keys.append(tasks[1].key)
+    assert keys[0] != keys[1]

@@ -16,7 +16,7 @@ import os
 import sys
 import time
 from collections.abc import Callable
-from dataclasses import replace
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
 
@@ -28,11 +28,67 @@ from colloc.cli import (
     pendulum_checks,
 )
 
-#: Per kind: the command words before the options, its checks, its positional options.
-KINDS: dict[str, tuple[tuple[str, ...], Callable[..., tuple[Any, list[str]]], tuple[str, ...]]] = {
-    "pendulum": (("pendulum",), pendulum_checks, ()),
-    "gait-simulate": (("gait", "simulate"), gait_simulate_checks, ()),
-    "gait-identify": (("gait", "identify"), gait_identify_checks, ("trial",)),
+
+@dataclass(frozen=True)
+class Kind:
+    """How a batch entry of one kind becomes a task.
+
+    Attributes
+    ----------
+    words : tuple of str
+        The command words before the options (``("gait", "identify")``).
+    checks : callable
+        The command's checks after parsing: ``checks(args) -> (settings, problems)``.
+    positional : tuple of str
+        Options given as positional arguments (the trial folder).
+    outputs : callable
+        ``outputs(args, settings) -> dict`` of the :class:`colloc.batch.Task` fields
+        ``out``, ``plot``, ``animate``, ``json``.
+    reads_trial : bool
+        Its ``trial`` may be written by a simulation of the same batch.
+    writes_trial : bool
+        It writes a trial into ``out/trial``.
+    """
+
+    words: tuple[str, ...]
+    checks: Callable[..., tuple[Any, list[str]]]
+    positional: tuple[str, ...]
+    outputs: Callable[[argparse.Namespace, Any], dict[str, Any]]
+    reads_trial: bool = False
+    writes_trial: bool = False
+
+
+def _pendulum_outputs(args: argparse.Namespace, settings: Any) -> dict[str, Any]:
+    plots = args.plot or args.animate
+    return {
+        "out": args.out if plots else None,
+        "plot": args.plot,
+        "animate": args.animate,
+        "json": args.json,
+    }
+
+
+def _identify_outputs(args: argparse.Namespace, settings: Any) -> dict[str, Any]:
+    return {
+        "out": None if args.no_plots else args.out,
+        "plot": not args.no_plots,
+        "json": args.json,
+    }
+
+
+def _simulate_outputs(args: argparse.Namespace, settings: Any) -> dict[str, Any]:
+    return {"out": Path(settings.out)}
+
+
+#: The kinds of batch entry.
+KINDS: dict[str, Kind] = {
+    "pendulum": Kind(("pendulum",), pendulum_checks, (), _pendulum_outputs),
+    "gait-simulate": Kind(
+        ("gait", "simulate"), gait_simulate_checks, (), _simulate_outputs, writes_trial=True
+    ),
+    "gait-identify": Kind(
+        ("gait", "identify"), gait_identify_checks, ("trial",), _identify_outputs, reads_trial=True
+    ),
 }
 
 #: Options a batch entry may not set: the batch decides them.
@@ -54,7 +110,7 @@ def entry_argv(kind: str, options: dict[str, Any]) -> list[str]:
     -------
     list of str
     """
-    words, _, positional = KINDS[kind]
+    words, positional = KINDS[kind].words, KINDS[kind].positional
     argv = list(words)
     for key in positional:
         if key in options:
@@ -120,32 +176,37 @@ def build_tasks(entries: list[Any]) -> tuple[list[Any], list[str]]:
         if args is None:
             problems.append(f"{where}: {error}")
             continue
-        checks = KINDS[entry.kind][1]
-        producer = None
-        if entry.kind == "gait-identify":
-            producer = made.get(Path(args.trial).resolve())
-            settings, found = checks(args, require_trial=producer is None)
+        kind = KINDS[entry.kind]
+        producer = made.get(Path(args.trial).resolve()) if kind.reads_trial else None
+        if kind.reads_trial:
+            settings, found = kind.checks(args, require_trial=producer is None)
             simulated = outs.get(Path(args.trial).resolve())
             if simulated is not None:
                 found = [p for p in found if not p.startswith("trial:")] + [
                     f"trial {str(args.trial)!r} is the output folder of the simulation of "
                     f"entry {simulated}; its trial is {str(Path(args.trial) / TRIAL_DIR)!r}"
                 ]
+            # the trial enters the key by its content (or its maker's key), not its path
+            inputs: dict[str, Any] = (
+                {"trial": folder_digest(args.trial)}
+                if producer is None
+                else {"trial_from": producer.key}
+            )
         else:
-            settings, found = checks(args)
+            settings, found = kind.checks(args)
+            inputs = {}
         problems += [f"{where}: {p}" for p in found]
-        task = _task(entry, args, settings)
-        if entry.kind == "gait-simulate":  # it writes its trial into out/trial
+        task = Task(
+            entry.position,
+            entry.kind,
+            settings,
+            key=task_key(entry.kind, _plain(settings), inputs),
+            after=() if producer is None else (producer.position,),
+            **kind.outputs(args, settings),
+        )
+        if kind.writes_trial:  # into out/trial
             made[(Path(settings.out) / TRIAL_DIR).resolve()] = task
             outs[Path(settings.out).resolve()] = entry.position
-        if producer is not None:
-            inputs: dict[str, Any] = {"trial_from": producer.key}
-            task = replace(task, after=(producer.position,))
-        elif entry.kind == "gait-identify":
-            inputs = {"trial": folder_digest(args.trial)}
-        else:
-            inputs = {}
-        task = replace(task, key=task_key(entry.kind, _plain(settings), inputs))
         for path in _written(task):
             if path in writes:
                 problems.append(
@@ -155,34 +216,6 @@ def build_tasks(entries: list[Any]) -> tuple[list[Any], list[str]]:
             writes.setdefault(path, entry.position)
         tasks.append(task)
     return tasks, problems
-
-
-def _task(entry: Any, args: argparse.Namespace, settings: Any) -> Any:
-    from colloc.batch.tasks import Task
-
-    if entry.kind == "pendulum":
-        plots = args.plot or args.animate
-        return Task(
-            entry.position,
-            entry.kind,
-            settings,
-            key="",
-            out=args.out if plots else None,
-            plot=args.plot,
-            animate=args.animate,
-            json=args.json,
-        )
-    if entry.kind == "gait-identify":
-        return Task(
-            entry.position,
-            entry.kind,
-            settings,
-            key="",
-            out=None if args.no_plots else args.out,
-            plot=not args.no_plots,
-            json=args.json,
-        )
-    return Task(entry.position, entry.kind, settings, key="", out=Path(settings.out))
 
 
 def _written(task: Any) -> list[Path]:
@@ -225,14 +258,6 @@ class _Progress:
     def close(self) -> None:
         if self.bar is not None:
             self.bar.close()
-
-
-def _open_batch_store(url: str) -> Any:
-    from colloc.store import RunStore
-
-    store = RunStore(url)
-    store.check_writable()
-    return store
 
 
 def _execute(
@@ -304,7 +329,6 @@ def _batch_run(args: argparse.Namespace) -> int:
     if args.check:
         print(f"{args.spec}: {len(tasks)} entries, all valid")
         return 0
-    _open_batch_store(url).close()
     source = {"file": os.fspath(args.spec), "spec": spec.source}
     outcome, _ = _execute(tasks, url, source, args)
     print(f"report: colloc batch report {outcome.batch_id[:12]} --db {url}")
@@ -339,15 +363,12 @@ def pendulum_repeat(args: argparse.Namespace, settings: Any, problems: list[str]
         unsupported.append("--json: not with --repeat (the batch report goes to --out)")
     if args.no_store:
         unsupported.append("--no-store: --repeat stores every run (the batch needs them)")
-    if args.scheduler is None and args.workers is not None and args.workers > 64:
-        unsupported.append(f"--workers {args.workers}: at most 64 local workers")
     if _report_problems("colloc pendulum", problems + unsupported):
         return 2
     tasks = []
     for i in range(args.repeat):
         seeded = replace(settings, seed=settings.seed + i)
         tasks.append(Task(i, "pendulum", seeded, key=task_key("pendulum", seeded.to_dict(), {})))
-    _open_batch_store(args.db).close()
     spec = {"command": "colloc pendulum --repeat", "repeat": args.repeat, **settings.to_dict()}
     outcome, _ = _execute(tasks, args.db, spec, args)
     from colloc.store import RunStore
