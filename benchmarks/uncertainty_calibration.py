@@ -87,7 +87,7 @@ def calibrate(
             if result.run_id is None:
                 run[name] = {"success": False, "gains": [], "std_errors": [], "seconds": 0.0}
                 continue
-            record = store.get(result.run_id)
+            record = store.get(result.run_id, arrays=False)
             rows = record.parameters
             run["known"] = [r.known for r in rows]
             run[name] = {

@@ -427,3 +427,12 @@ def test_the_batch_log_records_entries_and_finds_done_work(store):
         log.start("batch-1", {}, entries[:2])
     with pytest.raises(RunNotFoundError, match="no stored batch has an id starting with 'x'"):
         log.get("x")
+
+
+def test_a_run_read_without_its_arrays_has_the_rest_exactly(store):
+    record = make_record()
+    store.add(record)
+    light = store.get("run-a", arrays=False)
+    assert light.arrays == {}
+    assert light.parameters == record.parameters and light.settings == record.settings
+    assert store.get("run-a").arrays.keys() == record.arrays.keys()  # still there

@@ -10,6 +10,7 @@ running it again skips them (same entry keys) and does the rest.
 
 from __future__ import annotations
 
+import hashlib
 import logging
 import os
 import warnings
@@ -62,8 +63,6 @@ def batch_id_for(tasks: Sequence[Task]) -> str:
     str
         The same for the same batch file run again with the same package versions.
     """
-    import hashlib
-
     text = canonical_json([[t.kind, t.key] for t in tasks], "batch")
     return hashlib.sha256(text.encode()).hexdigest()
 

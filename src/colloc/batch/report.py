@@ -58,9 +58,17 @@ def pendulum_table(store: RunStore, run_ids: Sequence[str]) -> pd.DataFrame:
     pandas.DataFrame
         Columns :data:`PENDULUM_COLUMNS`; ``group`` numbers the distinct settings.
     """
+    return _pendulum_frame(_records(store, run_ids))
+
+
+def _records(store: RunStore, run_ids: Sequence[str]) -> list[Any]:
+    """The runs' records without their arrays (the tables need parameters and statistics)."""
+    return [store.get(run_id, arrays=False) for run_id in run_ids]
+
+
+def _pendulum_frame(records: Sequence[Any]) -> pd.DataFrame:
     groups: dict[str, list[Any]] = {}
-    for run_id in run_ids:
-        record = store.get(run_id)
+    for record in records:
         if record.kind != "pendulum":
             continue
         settings = {k: v for k, v in record.settings.items() if k != "seed"}
@@ -114,16 +122,19 @@ def gait_table(store: RunStore, run_ids: Sequence[str]) -> pd.DataFrame:
         ``run_id, trial, K_relative_error, Tstar_relative_error, fraction_within_3se,
         walks``, then ``vaf_<joint>`` (collocation controller) per joint.
     """
+    return _gait_frame(_records(store, run_ids))
+
+
+def _gait_frame(records: Sequence[Any]) -> pd.DataFrame:
     rows = []
-    for run_id in run_ids:
-        record = store.get(run_id)
+    for record in records:
         if record.kind != "gait-identify":
             continue
         stats = record.statistics
         validation = stats.get("validation") or {}
         vaf = (validation.get("torque_vaf") or {}).get("collocation") or {}
         row = {
-            "run_id": run_id,
+            "run_id": record.run_id,
             "trial": record.settings.get("trial"),
             "K_relative_error": stats.get("K_relative_error"),
             "Tstar_relative_error": stats.get("Tstar_relative_error"),
@@ -164,12 +175,12 @@ def write_batch_report(
     out.mkdir(parents=True, exist_ok=True)
     entries = batch["entries"].drop(columns=["settings"])
     written = _write_table(entries, out, "entries")
-    run_ids = [r for r in entries["run_id"] if isinstance(r, str)]
-    pendulum = pendulum_table(store, run_ids)
+    records = _records(store, [r for r in entries["run_id"] if isinstance(r, str)])
+    pendulum = _pendulum_frame(records)
     if not pendulum.empty:
         written += _write_table(pendulum, out, "pendulum-gains")
         written += _pendulum_figure(pendulum, out)
-    gait = gait_table(store, run_ids)
+    gait = _gait_frame(records)
     if not gait.empty:
         written += _write_table(gait, out, "gait-runs")
         written += _gait_figure(gait, out)

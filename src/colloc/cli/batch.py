@@ -130,11 +130,13 @@ def _text(value: Any) -> str:
     return str(value)
 
 
-def _parse(argv: list[str]) -> tuple[argparse.Namespace | None, str | None]:
+def _parse(
+    parser: argparse.ArgumentParser, argv: list[str]
+) -> tuple[argparse.Namespace | None, str | None]:
     """Parse without exiting: the namespace, or argparse's error message."""
     with contextlib.redirect_stderr(io.StringIO()) as err:
         try:
-            return build_parser().parse_args(argv), None
+            return parser.parse_args(argv), None
         except SystemExit:
             lines = [line for line in err.getvalue().splitlines() if "error:" in line]
             message = lines[-1].split("error:", 1)[1].strip() if lines else "invalid options"
@@ -163,6 +165,7 @@ def build_tasks(entries: list[Any]) -> tuple[list[Any], list[str]]:
     made: dict[Path, Task] = {}  # trial folders written by the batch's simulations
     outs: dict[Path, int] = {}  # their output folders
     writes: dict[Path, int] = {}
+    parser = build_parser()
     for entry in entries:
         where = entry.where()
         forbidden = [k for k in entry.options if k in BATCH_LEVEL]
@@ -172,7 +175,7 @@ def build_tasks(entries: list[Any]) -> tuple[list[Any], list[str]]:
                 "--workers, --scheduler), not per entry"
             )
             continue
-        args, error = _parse(entry_argv(entry.kind, entry.options))
+        args, error = _parse(parser, entry_argv(entry.kind, entry.options))
         if args is None:
             problems.append(f"{where}: {error}")
             continue

@@ -308,13 +308,15 @@ class RunStore:
         with self._engine.connect() as connection:
             return resolve_run_id(connection, run_id)
 
-    def get(self, run_id: str) -> RunRecord:
+    def get(self, run_id: str, *, arrays: bool = True) -> RunRecord:
         """Load a run.
 
         Parameters
         ----------
         run_id : str
             Full id or unique prefix.
+        arrays : bool, optional
+            False: leave the arrays (the bulk of a run) unread; ``record.arrays`` is empty.
 
         Returns
         -------
@@ -336,11 +338,15 @@ class RunStore:
                 .where(schema.parameters.c.run_id == full_id)
                 .order_by(schema.parameters.c.position)
             ).all()
-            array_rows = connection.execute(
-                select(schema.arrays.c.name, schema.arrays.c.data)
-                .where(schema.arrays.c.run_id == full_id)
-                .order_by(schema.arrays.c.position)
-            ).all()
+            array_rows = (
+                connection.execute(
+                    select(schema.arrays.c.name, schema.arrays.c.data)
+                    .where(schema.arrays.c.run_id == full_id)
+                    .order_by(schema.arrays.c.position)
+                ).all()
+                if arrays
+                else []
+            )
         return RunRecord(
             run_id=run.run_id,
             kind=run.kind,
