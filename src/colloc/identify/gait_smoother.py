@@ -1,0 +1,655 @@
+"""The dynamically consistent smoother of a walking record: gait2d fully actuated.
+
+The measured kinematics of a trial are noisy, and no controller guess makes them satisfy the
+dynamics: measured states with a guessed controller violate the equations of motion by
+about 3e3 and every Newton method diverges from there (``docs/gait.md``). The smoother
+instead gives the model enough actuators to follow any motion — the six joint torques and
+three residual forces on the trunk, all free trajectories — and finds the motion of the
+model closest to the measurements (joint angles, trunk pose, joint torques, each weighted
+by ``1 / sigma^2``; the residual forces penalised by their own ``sigma``). It is solved in
+stages, each warm-started from the one before:
+
+1. ``start``: the positions low-pass filtered (zero-lag Butterworth, 6 Hz as gait labs do),
+   the rates the scheme's own differences of them, and the torques and residuals that make
+   every defect zero (inverse dynamics through the scheme, :func:`consistent_completion`);
+2. ``backward-euler``: backward Euler at a smoothed contact (friction slip scale
+   ``v_s = 0.1`` m/s, where the model's ``0.01`` gives the horizontal contact force a time
+   constant of about 5e-5 s against ``h = 0.01`` s and no Newton method converged);
+3. ``midpoint``: the second-order midpoint rule from the backward-Euler solution (backward
+   Euler is robust but biased at 100 Hz);
+4. ``continuation``: the contact's slip scale stepped back to the model's own value, each
+   step warm-started from the last; a step that fails is halved.
+
+Each stage reports what it did (:class:`SmootherStage`); a stage that fails raises
+:class:`SmootherError` naming it, its solver status and the stages before it.
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+import scipy.sparse as sp
+import scipy.sparse.linalg as spla
+import sympy as sm
+
+Progress = Callable[[str, str], None]
+
+#: Slip scales [m/s] of the contact's friction law visited after the midpoint stage, from the
+#: smoothed start value down; the model's own value is appended. Measured on 20 s of a noisy
+#: trial: 4-10 iterations per step; straight from 0.1 to 0.01 diverged.
+CONTINUATION: tuple[float, ...] = (0.05, 0.03, 0.02, 0.015)
+#: Slip scale [m/s] of the first two stages (what the gait2d authors use since 2026).
+START_FRICTION_VELOCITY = 0.1
+#: Standard deviation [N, N, N m] per sample of the residual forces on the trunk's x, y and
+#: angle: large enough for the start's inverse dynamics, small enough that the fit removes
+#: them where the joint torques can do the work.
+RESIDUAL_STD: tuple[float, float, float] = (10.0, 10.0, 10.0)
+#: IPOPT options of the smoother's solves. Without IPOPT's gradient-based scaling backward
+#: Euler converged on 20 s of a noisy trial in 26 iterations; with it, it diverged
+#: (regularisation 1e14, defects 1e3) from the same zero-defect start.
+IPOPT_OPTIONS: dict[str, Any] = {"nlp_scaling_method": "none"}
+
+
+@dataclass(frozen=True)
+class SmootherSettings:
+    """What determines a smoother run.
+
+    Attributes
+    ----------
+    cutoff_hz : float
+        Cut-off of the zero-lag low-pass Butterworth filter of the start's positions.
+    filter_order : int
+        Order of that filter (applied forward and backward, so twice the attenuation).
+    start_friction_velocity : float
+        Contact slip scale ``v_s`` [m/s] of the backward-Euler and midpoint stages.
+    continuation : tuple of float
+        Intermediate slip scales of the continuation (decreasing, between the start value
+        and the model's); the model's own value ends it.
+    residual_std : tuple of float
+        Standard deviations of the three trunk residual forces per sample.
+    max_halvings : int
+        How often a failed continuation step is halved before the smoother gives up.
+    max_iter : int
+        IPOPT iterations per stage.
+    window_seconds, overlap_seconds : float
+        The backward-Euler stage runs on windows of this length overlapping by this much
+        (bounded work per solve, and no solve longer than the one measured to converge),
+        stitched in the middle of each overlap for the midpoint stage.
+    ipopt_options : mapping
+        IPOPT options of every stage's solve (default :data:`IPOPT_OPTIONS`).
+    """
+
+    cutoff_hz: float = 6.0
+    filter_order: int = 2
+    start_friction_velocity: float = START_FRICTION_VELOCITY
+    continuation: tuple[float, ...] = CONTINUATION
+    residual_std: tuple[float, float, float] = RESIDUAL_STD
+    max_halvings: int = 3
+    max_iter: int = 300
+    window_seconds: float = 10.0
+    overlap_seconds: float = 1.0
+    ipopt_options: Mapping[str, Any] = field(default_factory=lambda: dict(IPOPT_OPTIONS))
+
+    def problems(self) -> list[str]:
+        """Every problem with the settings; empty when they are valid."""
+        out = []
+
+        def positive(name: str, value: Any) -> bool:
+            ok = (
+                isinstance(value, int | float)
+                and not isinstance(value, bool)
+                and np.isfinite(value)
+                and value > 0
+            )
+            if not ok:
+                out.append(f"{name}: expected a positive number, found {value!r}")
+            return ok
+
+        positive("cutoff_hz", self.cutoff_hz)
+        positive("start_friction_velocity", self.start_friction_velocity)
+        if positive("window_seconds", self.window_seconds) and positive(
+            "overlap_seconds", self.overlap_seconds
+        ):
+            if self.overlap_seconds >= 0.5 * self.window_seconds:
+                out.append(
+                    f"overlap_seconds: expected less than half of window_seconds "
+                    f"({self.window_seconds}), found {self.overlap_seconds}"
+                )
+        for i, s in enumerate(self.residual_std):
+            positive(f"residual_std[{i}]", s)
+        if len(self.residual_std) != 3:
+            out.append(f"residual_std: expected 3 values, found {len(self.residual_std)}")
+        for name, value, low in (
+            ("filter_order", self.filter_order, 1),
+            ("max_halvings", self.max_halvings, 0),
+            ("max_iter", self.max_iter, 1),
+        ):
+            if isinstance(value, bool) or not isinstance(value, int) or value < low:
+                out.append(f"{name}: expected an integer >= {low}, found {value!r}")
+        steps = [float(v) for v in self.continuation if positive("continuation", v)]
+        if any(b >= a for a, b in zip(steps, steps[1:], strict=False)):
+            out.append(f"continuation: expected decreasing slip scales, found {steps}")
+        return out
+
+
+@dataclass(frozen=True)
+class SmootherStage:
+    """What one stage of the smoother did.
+
+    Attributes
+    ----------
+    name : str
+        ``start``, ``backward-euler``, ``midpoint`` or ``continuation``.
+    scheme : str
+        The collocation scheme's class name.
+    friction_velocity : float
+        The contact's slip scale in this stage [m/s].
+    status : str
+        IPOPT's status (``Consistent`` for the start).
+    success : bool
+    iterations : int
+    seconds : float
+    objective, max_defect : float
+        At the stage's end.
+    """
+
+    name: str
+    scheme: str
+    friction_velocity: float
+    status: str
+    success: bool
+    iterations: int
+    seconds: float
+    objective: float
+    max_defect: float
+
+    def describe(self) -> str:
+        """One line for progress reports and notes."""
+        return (
+            f"{self.name} ({self.scheme}, v_s = {self.friction_velocity:g} m/s): "
+            f"{self.status}, {self.iterations} iterations, {self.seconds:.1f} s, "
+            f"max defect {self.max_defect:.1e}"
+        )
+
+
+class SmootherError(RuntimeError):
+    """A smoother stage did not converge; the message names it and the stages before it."""
+
+    def __init__(self, message: str, stages: Sequence[SmootherStage]) -> None:
+        super().__init__(message)
+        self.stages = tuple(stages)
+
+
+@dataclass
+class SmoothedGait:
+    """The smoother's result on the grid of the measurements.
+
+    Attributes
+    ----------
+    times : ndarray, shape (N,)
+    states : ndarray, shape (N, 18)
+        ``[q, u]`` in the order of :data:`colloc.gait.metadata.STATE_SIGNAL_NAMES`.
+    torques : ndarray, shape (N, 6)
+        Joint torques, in the order of :data:`colloc.data.columns.TORQUE_COLUMNS`.
+    residuals : ndarray, shape (N, 3)
+        Residual forces on the trunk's x [N], y [N] and angle [N m].
+    stages : list of SmootherStage
+    problem : Problem
+        The last stage's problem (midpoint at the model's contact).
+    z : ndarray
+        Its free vector at the solution.
+    """
+
+    times: np.ndarray
+    states: np.ndarray
+    torques: np.ndarray
+    residuals: np.ndarray
+    stages: list[SmootherStage]
+    problem: Any
+    z: np.ndarray
+    notes: list[str] = field(default_factory=list)
+
+    def at_intervals(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Times, states and torques at the interval midpoints, where the midpoint rule
+        evaluates the dynamics: averages of neighbouring nodes, which cancel the rule's
+        odd-even mode in the node rates."""
+        mid = 0.5 * (self.times[1:] + self.times[:-1])
+        return (
+            mid,
+            0.5 * (self.states[1:] + self.states[:-1]),
+            0.5 * (self.torques[1:] + self.torques[:-1]),
+        )
+
+
+def lowpass(times: np.ndarray, values: np.ndarray, cutoff_hz: float, order: int = 2) -> np.ndarray:
+    """Zero-lag Butterworth low-pass of uniformly sampled columns (forward and backward).
+
+    Parameters
+    ----------
+    times : ndarray, shape (N,)
+        Uniform sample times.
+    values : ndarray, shape (N,) or (N, k)
+    cutoff_hz : float
+        Cut-off frequency, below the Nyquist frequency.
+    order : int
+        Order of the filter applied in each direction.
+
+    Returns
+    -------
+    ndarray
+        Same shape as ``values``.
+
+    Raises
+    ------
+    ValueError
+        When the sampling is not uniform, the cut-off is not below the Nyquist frequency, or
+        the record is too short for the filter's edge padding.
+    """
+    from scipy.signal import butter, filtfilt
+
+    h = float(np.mean(np.diff(times)))
+    if not np.allclose(np.diff(times), h, rtol=1e-6, atol=1e-12):
+        raise ValueError("times: expected uniform sampling for the Butterworth filter")
+    nyquist = 0.5 / h
+    if not 0 < cutoff_hz < nyquist:
+        raise ValueError(
+            f"cutoff_hz: expected a value between 0 and the Nyquist frequency {nyquist:g} Hz, "
+            f"found {cutoff_hz!r}"
+        )
+    b, a = butter(order, cutoff_hz / nyquist)
+    pad = 3 * max(len(a), len(b))
+    if len(times) <= pad:
+        raise ValueError(f"times: expected more than {pad} samples to filter, found {len(times)}")
+    return np.asarray(filtfilt(b, a, values, axis=0))
+
+
+def consistent_completion(
+    problem: Any,
+    z: np.ndarray,
+    free: np.ndarray,
+    rows: np.ndarray | None = None,
+    tol: float = 1e-9,
+    max_steps: int = 5,
+) -> np.ndarray:
+    """Change only the variables ``free`` of ``z`` (least norm) until the defects ``rows``
+    (default all) are zero.
+
+    With ``free`` the rates and the actuation of a fully actuated model, this is the inverse
+    dynamics of the scheme: the rates become the scheme's differences of the positions and
+    the inputs whatever makes the dynamics hold. Each step solves ``J_f d = -c`` for the
+    smallest ``d`` (``d = J_f^T (J_f J_f^T)^-1 (-c)``, one sparse factorisation); the
+    defects are linear in the rates' kinematic rows and in the inputs, so a few steps do.
+
+    Parameters
+    ----------
+    problem : Problem
+    z : ndarray
+        The free vector to complete (not changed).
+    free : ndarray of int
+        Indices of the variables that may change.
+    rows : ndarray of int, optional
+        Indices of the defects to zero (e.g. the kinematic rows, to make the rates the
+        scheme's differences of the positions); default every defect.
+    tol : float
+        Largest defect accepted.
+    max_steps : int
+
+    Returns
+    -------
+    ndarray
+        The completed free vector.
+
+    Raises
+    ------
+    ValueError
+        When ``free`` cannot zero the defects (``J_f`` has not full row rank, or the steps
+        stall above ``tol``), naming the largest defect left.
+    """
+    nlp, lay = problem.nlp, problem.layout
+    jac_rows, jac_cols = nlp.jacobianstructure()
+    z = np.array(z, dtype=float)
+    free = np.asarray(free)
+    chosen = np.arange(lay.num_constraints) if rows is None else np.asarray(rows)
+    for _ in range(max_steps):
+        c = nlp.constraints(z)[chosen]
+        if c.size == 0 or float(np.max(np.abs(c))) <= tol:
+            return z
+        J = sp.csc_matrix(
+            (nlp.jacobian(z), (jac_rows, jac_cols)), shape=(lay.num_constraints, nlp.n)
+        )
+        Jf = J[chosen][:, free]
+        try:
+            y = spla.spsolve((Jf @ Jf.T).tocsc(), -c)
+        except RuntimeError as exc:  # exactly singular factor
+            raise ValueError(f"free variables cannot zero the defects: {exc}") from exc
+        if not np.all(np.isfinite(y)):
+            break
+        z[free] += Jf.T @ y
+    c = nlp.constraints(z)[chosen]
+    worst = float(np.max(np.abs(c))) if c.size else 0.0
+    if not worst <= tol:
+        i = int(chosen[np.nanargmax(np.abs(c))])
+        raise ValueError(
+            f"free variables cannot zero the defects: {worst:.3g} left at "
+            f"{lay.describe_constraint(i)}"
+        )
+    return z
+
+
+class GaitSmoother:
+    """The fully actuated gait2d smoother of one record (see the module's description).
+
+    Parameters
+    ----------
+    dynamics : GaitDynamics
+        The plant with its constants (:meth:`colloc.gait.orbit.GaitDynamics.build`).
+    times : ndarray, shape (N,)
+        Uniform sample times.
+    positions : ndarray, shape (N, 9)
+        Measured trunk x, y, angle and the six joint angles (the model's coordinates).
+    belt_speed : ndarray, shape (N,)
+    noise_std : ndarray, shape (9,)
+        Standard deviation of each position's noise.
+    torques : ndarray, shape (N, 6), optional
+        Measured joint torques (NaN where missing), tracked when given.
+    torque_std : float
+        Their noise's standard deviation.
+    settings : SmootherSettings, optional
+    """
+
+    def __init__(
+        self,
+        dynamics: Any,
+        times: np.ndarray,
+        positions: np.ndarray,
+        belt_speed: np.ndarray,
+        noise_std: np.ndarray,
+        torques: np.ndarray | None = None,
+        torque_std: float = 1.0,
+        settings: SmootherSettings | None = None,
+    ) -> None:
+        from sympy.physics.mechanics import dynamicsymbols
+
+        self.settings = settings or SmootherSettings()
+        problems = self.settings.problems()
+        self.times = np.asarray(times, dtype=float)
+        N = self.times.size
+        arrays = {
+            "positions": (np.asarray(positions, dtype=float), (N, 9)),
+            "belt_speed": (np.asarray(belt_speed, dtype=float), (N,)),
+            "noise_std": (np.asarray(noise_std, dtype=float), (9,)),
+        }
+        if torques is not None:
+            arrays["torques"] = (np.asarray(torques, dtype=float), (N, 6))
+        for name, (value, shape) in arrays.items():
+            if value.shape != shape:
+                problems.append(f"{name}: expected shape {shape}, found {value.shape}")
+            elif name != "torques" and not np.all(np.isfinite(value)):
+                problems.append(f"{name}: expected finite values, found NaN or inf")
+        if not problems and np.any(arrays["noise_std"][0] <= 0):
+            problems.append("noise_std: expected positive standard deviations")
+        if not (np.isfinite(torque_std) and torque_std > 0):
+            problems.append(f"torque_std: expected a positive number, found {torque_std!r}")
+        if problems:
+            raise ValueError("smoother: " + "; ".join(problems))
+        self.dynamics = dynamics
+        gait, model = dynamics.gait, dynamics.model
+        self.positions = arrays["positions"][0]
+        self._noise_std = arrays["noise_std"][0]
+        self._torques = None if torques is None else arrays["torques"][0]
+        self._torque_std = float(torque_std)
+        self.belt_speed = arrays["belt_speed"][0]
+        self.residual_inputs = tuple(dynamicsymbols(f"trunk_residual_{i}") for i in range(3))
+        half = model.num_states // 2
+        actuated = model.with_disturbances(
+            {half + i: w for i, w in enumerate(self.residual_inputs)}
+        )
+        coordinates = list(model.states[:half])
+        measured: dict[sm.Basic, np.ndarray] = dict(zip(coordinates, self.positions.T, strict=True))
+        weights: dict[sm.Basic, float] = {
+            q: 1.0 / s**2 for q, s in zip(coordinates, arrays["noise_std"][0], strict=True)
+        }
+        if torques is not None:
+            measured.update(zip(gait.torques, arrays["torques"][0].T, strict=True))
+            weights.update({T: 1.0 / torque_std**2 for T in gait.torques})
+        self.model = actuated.with_outputs(list(measured))
+        self._measured, self._weights = measured, weights
+        self._friction = gait.contact_symbols.friction_velocity
+        self.model_friction_velocity = float(dynamics.constants[self._friction])
+
+    def problem(self, scheme: Any, friction_velocity: float) -> Any:
+        """The smoother's collocation problem with ``scheme`` at a contact slip scale."""
+        from colloc.nlp.objective import Tracking
+        from colloc.nlp.problem import Problem
+
+        constants = dict(self.dynamics.constants)
+        constants[self._friction] = float(friction_velocity)
+        return Problem(
+            self.model,
+            self.times,
+            scheme=scheme,
+            known_trajectories={self.dynamics.gait.belt_speed: self.belt_speed},
+            known_parameters=constants,
+            objective=Tracking(self._measured, self._weights),
+            process_noise=dict(zip(self.residual_inputs, self.settings.residual_std, strict=True)),
+        )
+
+    def start(self, problem: Any) -> np.ndarray:
+        """The zero-defect start of ``problem``: filtered positions, the scheme's differences
+        as rates, inverse-dynamics torques and residuals (:func:`consistent_completion`)."""
+        s = self.settings
+        q = lowpass(self.times, self.positions, s.cutoff_hz, s.filter_order)
+        u = np.gradient(q, self.times, axis=0)
+        z = problem.initial_guess(np.hstack([q, u]))
+        lay = problem.layout
+        n = self.dynamics.model.num_states
+        half = n // 2
+
+        def indices(names: list[str]) -> np.ndarray:
+            return np.concatenate([np.asarray(lay.node_indices(name)) for name in names])
+
+        # Kane's first half of the rows is q' - u: solved for the rates alone they make the
+        # rates the scheme's differences of the positions; the dynamic rows are then linear
+        # in the torques and residuals (inverse dynamics)
+        kinematic = np.concatenate(
+            [
+                b.offset + np.flatnonzero(np.arange(b.size) % b.rows < half)
+                for b in lay.blocks
+                if b.item == "interval"
+            ]
+        )
+        z = consistent_completion(problem, z, indices(lay.node_names[half:n]), kinematic)
+        dynamic = np.setdiff1d(np.arange(lay.num_constraints), kinematic)
+        return consistent_completion(problem, z, indices(lay.node_names[n:]), dynamic)
+
+    def run(self, progress: Progress | None = None) -> SmoothedGait:
+        """All stages; see the module's description.
+
+        Parameters
+        ----------
+        progress : callable, optional
+            ``progress(stage, detail)`` before and after each stage.
+
+        Returns
+        -------
+        SmoothedGait
+
+        Raises
+        ------
+        SmootherError
+            When a stage does not converge (a continuation step after its halvings).
+        """
+        from colloc.transcription import Midpoint
+
+        say = progress or (lambda stage, detail: None)
+        s = self.settings
+        stages: list[SmootherStage] = []
+        v0 = s.start_friction_velocity
+        nodes = self._backward_euler(say, stages)
+
+        midpoint = self.problem(Midpoint(), v0)
+        say("midpoint", "warm-started from backward Euler")
+        z = self._solve(midpoint, midpoint.initial_guess(nodes), "midpoint", v0, stages)
+        say("midpoint", stages[-1].describe())
+
+        target = self.model_friction_velocity
+        pending = [v for v in s.continuation if target < v < v0] + ([target] if target < v0 else [])
+        current, halvings = v0, 0
+        while pending:
+            goal = pending[0]
+            say("continuation", f"v_s {current:g} -> {goal:g} m/s")
+            self._set_friction(midpoint, goal)
+            try:
+                z = self._solve(midpoint, z, "continuation", goal, stages)
+            except SmootherError:
+                if halvings >= s.max_halvings:
+                    raise
+                halvings += 1
+                pending.insert(0, 0.5 * (current + goal))  # halve the step, then go on
+                continue
+            say("continuation", stages[-1].describe())
+            current, halvings = pending.pop(0), 0
+        return self._result(midpoint, z, stages)
+
+    # ------------------------------------------------------------------ helpers
+    def windows(self) -> list[tuple[int, int, int, int]]:
+        """The backward-Euler stage's windows: ``(first, stop, keep_first, keep_stop)`` node
+        ranges, overlapping by :attr:`SmootherSettings.overlap_seconds`; each window's
+        solution is kept from the middle of one overlap to the middle of the next."""
+        N = self.times.size
+        h = float(np.median(np.diff(self.times)))
+        width = int(round(self.settings.window_seconds / h)) + 1
+        overlap = int(round(self.settings.overlap_seconds / h))
+        if N <= width + overlap:
+            return [(0, N, 0, N)]
+        count = int(np.ceil((N - overlap) / (width - overlap)))
+        firsts = np.round(np.linspace(0, N - width, count)).astype(int)
+        stops = firsts + width
+        cuts = [0] + [int((stops[k] + firsts[k + 1]) // 2) for k in range(count - 1)] + [N]
+        return [
+            (int(a), int(b), cuts[k], cuts[k + 1])
+            for k, (a, b) in enumerate(zip(firsts, stops, strict=True))
+        ]
+
+    def _part(self, first: int, stop: int) -> GaitSmoother:
+        """The smoother of nodes ``first:stop`` with the same settings."""
+        window = slice(first, stop)
+        return GaitSmoother(
+            self.dynamics,
+            self.times[window],
+            self.positions[window],
+            self.belt_speed[window],
+            self._noise_std,
+            None if self._torques is None else self._torques[window],
+            self._torque_std,
+            self.settings,
+        )
+
+    def _backward_euler(self, say: Progress, stages: list[SmootherStage]) -> np.ndarray:
+        """The zero-defect start and backward Euler at the smoothed contact, window by
+        window; the node values (states and free inputs) of the whole record."""
+        from colloc.transcription import BackwardEuler
+
+        v0 = self.settings.start_friction_velocity
+        windows = self.windows()
+        nodes: np.ndarray | None = None
+        for k, (first, stop, keep, keep_stop) in enumerate(windows):
+            part = self if len(windows) == 1 else self._part(first, stop)
+            label = "" if len(windows) == 1 else f" {k + 1}/{len(windows)}"
+            clock = time.perf_counter()
+            say("start", f"window{label}: filtered positions, inverse dynamics")
+            euler = part.problem(BackwardEuler(), v0)
+            z = part.start(euler)
+            stages.append(part._stage("start" + label, euler, z, v0, "Consistent", True, 0, clock))
+            say("backward-euler", f"window{label}: {stop - first} nodes, v_s = {v0:g} m/s")
+            z = part._solve(euler, z, "backward-euler" + label, v0, stages)
+            say("backward-euler", stages[-1].describe())
+            lay = euler.layout
+            X = lay.node_matrix(z)[:, : len(lay.node_names)]
+            if nodes is None:
+                nodes = np.empty((self.times.size, X.shape[1]))
+            nodes[keep:keep_stop] = X[keep - first : keep_stop - first]
+        assert nodes is not None
+        return nodes
+
+    def _set_friction(self, problem: Any, value: float) -> None:
+        constants = dict(problem.known_parameters)
+        constants[self._friction] = float(value)
+        problem.replace_data(known_parameters=constants)
+
+    def _solve(
+        self, problem: Any, z: np.ndarray, name: str, v_s: float, stages: list[SmootherStage]
+    ) -> np.ndarray:
+        clock = time.perf_counter()
+        solution = problem.solve(
+            z, **{"max_iter": self.settings.max_iter, **self.settings.ipopt_options}
+        )
+        st = solution.stats
+        stage = self._stage(
+            name,
+            problem,
+            solution.z,
+            v_s,
+            str(st["status"]),
+            bool(st["success"]),
+            int(st["iterations"]),
+            clock,
+        )
+        stages.append(stage)
+        if not stage.success:
+            done = "; ".join(s.describe() for s in stages[:-1])
+            raise SmootherError(
+                f"smoother: stage {stage.describe()} did not converge"
+                + (f" (after {done})" if done else ""),
+                stages,
+            )
+        return np.asarray(solution.z)
+
+    @staticmethod
+    def _stage(
+        name: str,
+        problem: Any,
+        z: np.ndarray,
+        v_s: float,
+        status: str,
+        success: bool,
+        iterations: int,
+        clock: float,
+    ) -> SmootherStage:
+        defects = problem.defects(z)
+        return SmootherStage(
+            name,
+            problem.scheme.name,
+            float(v_s),
+            status,
+            success,
+            iterations,
+            time.perf_counter() - clock,
+            float(problem.nlp.objective(z)),
+            float(np.max(np.abs(defects))) if defects.size else 0.0,
+        )
+
+    def _result(self, problem: Any, z: np.ndarray, stages: list[SmootherStage]) -> SmoothedGait:
+        lay = problem.layout
+        X = lay.node_matrix(z)
+        n = self.dynamics.model.num_states
+        from colloc.model.symbols import name_of
+
+        names = [name_of(r) for r in problem.partition.free_inputs]
+        inputs = X[:, n : n + len(names)]
+        gait = self.dynamics.gait
+        order = [names.index(name_of(T)) for T in gait.torques]
+        residual = [names.index(name_of(w)) for w in self.residual_inputs]
+        return SmoothedGait(
+            self.times,
+            X[:, :n].copy(),
+            inputs[:, order].copy(),
+            inputs[:, residual].copy(),
+            stages,
+            problem,
+            np.asarray(z),
+        )
