@@ -497,10 +497,15 @@ class GaitSmoother:
         say("midpoint", stages[-1].describe())
 
         target = self.model_friction_velocity
-        pending = [v for v in s.continuation if target < v < v0] + ([target] if target < v0 else [])
+        scheduled = [v for v in s.continuation if target < v < v0] + (
+            [target] if target < v0 else []
+        )
+        # (goal, whether the schedule set it): a failed step inserts its halfway point, and
+        # the halvings count until the scheduled goal is reached
+        pending = [(v, True) for v in scheduled]
         current, halvings = v0, 0
         while pending:
-            goal = pending[0]
+            goal, planned = pending[0]
             say("continuation", f"v_s {current:g} -> {goal:g} m/s")
             self._set_friction(midpoint, goal)
             try:
@@ -509,10 +514,13 @@ class GaitSmoother:
                 if halvings >= s.max_halvings:
                     raise
                 halvings += 1
-                pending.insert(0, 0.5 * (current + goal))  # halve the step, then go on
+                pending.insert(0, (0.5 * (current + goal), False))
                 continue
             say("continuation", stages[-1].describe())
-            current, halvings = pending.pop(0), 0
+            pending.pop(0)
+            current = goal
+            if planned:
+                halvings = 0
         return self._result(midpoint, z, stages)
 
     # ------------------------------------------------------------------ helpers
@@ -584,6 +592,22 @@ class GaitSmoother:
     def _solve(
         self, problem: Any, z: np.ndarray, name: str, v_s: float, stages: list[SmootherStage]
     ) -> np.ndarray:
+        """One stage's solve, recorded in ``stages``; raises :class:`SmootherError` when it
+        does not converge, naming it and the stages before it."""
+        stage, z_new = self._attempt(problem, z, name, v_s)
+        stages.append(stage)
+        if not stage.success:
+            done = "; ".join(s.describe() for s in stages[:-1])
+            raise SmootherError(
+                f"smoother: stage {stage.describe()} did not converge"
+                + (f" (after {done})" if done else ""),
+                stages,
+            )
+        return z_new
+
+    def _attempt(
+        self, problem: Any, z: np.ndarray, name: str, v_s: float
+    ) -> tuple[SmootherStage, np.ndarray]:
         clock = time.perf_counter()
         solution = problem.solve(
             z, **{"max_iter": self.settings.max_iter, **self.settings.ipopt_options}
@@ -599,15 +623,7 @@ class GaitSmoother:
             int(st["iterations"]),
             clock,
         )
-        stages.append(stage)
-        if not stage.success:
-            done = "; ".join(s.describe() for s in stages[:-1])
-            raise SmootherError(
-                f"smoother: stage {stage.describe()} did not converge"
-                + (f" (after {done})" if done else ""),
-                stages,
-            )
-        return np.asarray(solution.z)
+        return stage, np.asarray(solution.z)
 
     @staticmethod
     def _stage(

@@ -1,0 +1,226 @@
+"""The gait smoother against the truth of a noise-free fixture trial.
+
+References: the fixture's own recorded states and torques (a CVODES simulation of gait2d at
+the model's contact, written exactly); backward differences computed here by NumPy; the
+analytic gain of a Butterworth filter applied forward and backward.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from colloc.data.columns import JOINT_ANGLE_COLUMNS, TORQUE_COLUMNS, TRUNK_COLUMNS
+from colloc.data.trial import read_trial
+from colloc.identify.gait_smoother import (
+    GaitSmoother,
+    SmootherError,
+    SmootherSettings,
+    SmootherStage,
+    lowpass,
+)
+
+FIXTURE = Path(__file__).parent / "data" / "gait_trial_p20"
+POSITIONS = list(TRUNK_COLUMNS + JOINT_ANGLE_COLUMNS)
+ANGLE_STD = np.radians(0.25)
+STD = np.array([0.001, 0.001, ANGLE_STD] + [ANGLE_STD] * 6)
+
+
+@pytest.fixture(scope="module")
+def window():
+    """2 s of the noise-free fixture (t = 2..4 s) with its truth."""
+    trial = read_trial(FIXTURE)
+    rows = np.flatnonzero((trial.time >= 2.0 - 1e-9) & (trial.time <= 4.0 + 1e-9))
+    signals = trial.signals.iloc[rows].reset_index(drop=True)
+    return (
+        trial.time[rows],
+        signals[POSITIONS].to_numpy(dtype=float),
+        signals["belt_speed"].to_numpy(dtype=float),
+        signals[list(TORQUE_COLUMNS)].to_numpy(dtype=float),
+    )
+
+
+@pytest.fixture(scope="module")
+def dynamics():
+    from colloc.gait.orbit import GaitDynamics
+
+    return GaitDynamics.build()
+
+
+def noisy(window, seed: int):
+    t, q, v, T = window
+    rng = np.random.default_rng(seed)
+    return q + rng.standard_normal(q.shape) * STD, T + rng.standard_normal(T.shape)
+
+
+def test_the_start_has_zero_defects_and_the_schemes_differences_as_rates(window, dynamics):
+    from colloc.transcription import BackwardEuler
+
+    t, _, v, _ = window
+    q, T = noisy(window, 1)
+    smoother = GaitSmoother(dynamics, t, q, v, STD, T)
+    problem = smoother.problem(BackwardEuler(), 0.1)
+    z = smoother.start(problem)
+    assert np.max(np.abs(problem.defects(z))) < 1e-8
+    X = problem.layout.node_matrix(z)
+    filtered = lowpass(t, q, 6.0)
+    np.testing.assert_allclose(X[:, :9], filtered, atol=1e-12)  # positions untouched
+    # backward Euler's kinematic rows: u_{k+1} = (q_{k+1} - q_k) / h
+    np.testing.assert_allclose(X[1:, 9:18], np.diff(filtered, axis=0) / np.diff(t)[:, None])
+
+
+@pytest.fixture(scope="module")
+def smoothed(window, dynamics):
+    t, _, v, _ = window
+    q, T = noisy(window, 2)
+    reports: list[tuple[str, str]] = []
+    result = GaitSmoother(dynamics, t, q, v, STD, T).run(lambda s, d: reports.append((s, d)))
+    return result, q, T, reports
+
+
+def test_every_stage_converges_and_the_contact_ends_at_the_models_own(smoothed, dynamics):
+    result, _, _, reports = smoothed
+    names = [s.name for s in result.stages]
+    assert names[:3] == ["start", "backward-euler", "midpoint"]
+    assert set(names[3:]) == {"continuation"}
+    assert all(s.success for s in result.stages)
+    friction = dynamics.gait.contact_symbols.friction_velocity
+    assert result.stages[-1].friction_velocity == dynamics.constants[friction] == 0.01
+    assert [s.friction_velocity for s in result.stages[3:]] == [0.05, 0.03, 0.02, 0.015, 0.01]
+    assert result.problem.known_parameters[friction] == 0.01
+    assert max(s.max_defect for s in result.stages) < 1e-6
+    # each stage is announced and then described
+    assert [s for s, _ in reports].count("continuation") == 10
+    assert any("Solve_Succeeded" in d for s, d in reports if s == "midpoint")
+
+
+def test_the_smoothed_motion_is_closer_to_the_truth_than_the_measurements(window, smoothed):
+    _, q_true, _, T_true = window
+    result, q, T, _ = smoothed
+    angles = slice(2, 9)
+    rms = lambda a, b: np.sqrt(np.mean((a - b) ** 2, axis=0))  # noqa: E731
+    measured = rms(q[:, angles], q_true[:, angles])
+    fitted = rms(result.states[:, angles], q_true[:, angles])
+    assert np.all(fitted < 0.7 * measured), (np.degrees(fitted), np.degrees(measured))
+    # torques: within the measurement noise (1 N m) of the truth, not the inverse dynamics
+    # of filtered kinematics through the contact (hundreds of N m)
+    assert np.all(rms(result.torques, T_true) < 1.3)
+    assert np.all(np.sqrt(np.mean(result.residuals**2, axis=0)) < 10.0)
+    mid_t, mid_x, mid_T = result.at_intervals()
+    np.testing.assert_allclose(mid_t, 0.5 * (result.times[1:] + result.times[:-1]))
+    np.testing.assert_allclose(mid_x[3], 0.5 * (result.states[3] + result.states[4]))
+    assert mid_T.shape == (result.times.size - 1, 6)
+
+
+class _Scripted(GaitSmoother):
+    """A smoother whose solves fail as scripted, to test the schedule alone: ``failures``
+    maps a slip scale to how many times its solve fails (``inf``: always)."""
+
+    failures: dict[float, float]
+    visited: list[float]
+
+    def problem(self, scheme, friction_velocity):
+        class Stub:
+            known_parameters = {self._friction: friction_velocity}
+
+            def replace_data(inner, known_parameters):
+                inner.known_parameters = dict(known_parameters)
+
+            def initial_guess(inner, nodes):
+                return nodes
+
+        return Stub()
+
+    def _backward_euler(self, say, stages):
+        self.visited = []
+        return np.zeros((self.times.size, 27))
+
+    def _attempt(self, problem, z, name, v_s):
+        v = round(v_s, 6)
+        self.visited.append(v)
+        ok = self.failures.get(v, 0) <= 0
+        self.failures[v] = self.failures.get(v, 0) - 1
+        status = "Solve_Succeeded" if ok else "Maximum_Iterations_Exceeded"
+        return SmootherStage(name, "Midpoint", v_s, status, ok, 1, 0.0, 0.0, 0.0), z
+
+    def _result(self, problem, z, stages):
+        return stages
+
+
+def _scripted(window, dynamics, failures, **settings):
+    t, q, v, T = window
+    smoother = _Scripted(dynamics, t, q, v, STD, T, settings=SmootherSettings(**settings))
+    smoother.failures = dict(failures)
+    return smoother
+
+
+def test_a_failed_continuation_step_is_halved_and_then_reaches_its_goal(window, dynamics):
+    smoother = _scripted(window, dynamics, {0.01: 1}, continuation=(0.05,))
+    stages = smoother.run()
+    # midpoint at 0.1, 0.05, the first try at 0.01 fails, halfway (0.03), then 0.01
+    assert smoother.visited == [0.1, 0.05, 0.01, 0.03, 0.01]
+    assert stages[-1].success and stages[-1].friction_velocity == 0.01
+
+
+def test_a_goal_that_keeps_failing_stops_after_the_halvings_naming_the_stages(window, dynamics):
+    smoother = _scripted(window, dynamics, {0.03: np.inf}, continuation=(0.05, 0.03))
+    with pytest.raises(
+        SmootherError,
+        match=r"stage continuation \(Midpoint, v_s = 0.03 m/s\): Maximum_Iterations_Exceeded",
+    ) as info:
+        smoother.run()
+    assert "did not converge (after midpoint (Midpoint, v_s = 0.1 m/s)" in str(info.value)
+    # three halvings (the default) move closer each time, then the fourth failure ends it
+    assert smoother.visited == [0.1, 0.05, 0.03, 0.04, 0.03, 0.035, 0.03, 0.0325, 0.03]
+    assert len(info.value.stages) == len(smoother.visited)
+
+
+def test_settings_and_arrays_are_checked_with_every_problem_named(window, dynamics):
+    bad = SmootherSettings(
+        cutoff_hz=-1.0, continuation=(0.02, 0.05), max_iter=0, overlap_seconds=6.0
+    )
+    problems = bad.problems()
+    assert any(p.startswith("cutoff_hz: expected a positive number") for p in problems)
+    assert any("continuation: expected decreasing" in p for p in problems)
+    assert any(p.startswith("max_iter: expected an integer >= 1") for p in problems)
+    assert any(p.startswith("overlap_seconds: expected less than half") for p in problems)
+    t, q, v, T = window
+    with pytest.raises(ValueError, match=r"positions: expected shape \(201, 9\), found \(201, 8\)"):
+        GaitSmoother(dynamics, t, q[:, :8], v, STD, T)
+    with pytest.raises(ValueError, match="cutoff_hz: expected a positive number"):
+        GaitSmoother(dynamics, t, q, v, STD, T, settings=bad)
+
+
+def test_windows_overlap_and_their_kept_parts_tile_the_record(window, dynamics):
+    t = np.arange(0.0, 25.0 + 1e-9, 0.01)
+    N = t.size
+    smoother = GaitSmoother(
+        dynamics, t, np.zeros((N, 9)), np.ones(N), STD, settings=SmootherSettings()
+    )
+    windows = smoother.windows()
+    assert len(windows) == 3
+    kept = np.concatenate([np.arange(a, b) for _, _, a, b in windows])
+    np.testing.assert_array_equal(kept, np.arange(N))  # every node once, in order
+    for first, stop, keep, keep_stop in windows:
+        assert stop - first == 1001 and first <= keep < keep_stop <= stop
+    for (_, stop, _, cut), (first, _, cut2, _) in zip(windows, windows[1:], strict=False):
+        assert stop - first >= 100 and cut == cut2 and first < cut < stop
+
+
+def test_lowpass_is_zero_lag_with_the_butterworth_gain_squared():
+    t = np.arange(0.0, 20.0, 0.01)
+    slow, fast = np.sin(2 * np.pi * 1.0 * t), np.sin(2 * np.pi * 15.0 * t)
+    out = lowpass(t, np.column_stack([slow, fast]), 6.0)
+    middle = slice(500, 1500)
+    # |H(f)|^2 of a 2nd-order Butterworth is 1 / (1 + (f / fc)^4) in analog form; the
+    # bilinear transform warps it slightly, so compare with its digital response
+    from scipy.signal import butter, freqz
+
+    b, a = butter(2, 6.0 / 50.0)
+    gain = np.abs(freqz(b, a, worN=[1.0, 15.0], fs=100.0)[1]) ** 2
+    np.testing.assert_allclose(out[middle, 0], gain[0] * slow[middle], atol=1e-6)
+    np.testing.assert_allclose(out[middle, 1], gain[1] * fast[middle], atol=1e-6)
+    with pytest.raises(ValueError, match="cutoff_hz: expected a value between 0 and the Nyquist"):
+        lowpass(t, slow, 60.0)
