@@ -285,7 +285,6 @@ def test_fuzzed_gait_command_lines_are_checked_without_an_exception(seed, tmp_pa
     assert not (tmp_path / "o").exists()  # checking writes nothing
 
 
-SHARED = Path(__file__).resolve().parents[1] / ".." / "shared" / "data"
 BELT = Path(__file__).resolve().parents[1] / "src" / "colloc" / "gait" / "reference"
 
 
@@ -301,11 +300,9 @@ def _record_cases(tmp_path: Path) -> list[tuple[str, Path, object]]:
         ("belt", belt, read_belt_perturbation),
         ("grf", grf, read_vertical_grf),
     ]
-    winter = SHARED / "winter-normal-gait-cycle" / "Winter_normal.csv"
-    if winter.is_file():
-        copy = tmp_path / "winter.csv"
-        copy.write_bytes(winter.read_bytes())
-        cases.append(("winter", copy, read_winter_gait_cycle))
+    copy = tmp_path / "winter.csv"
+    copy.write_bytes((BELT / "Winter_normal.csv").read_bytes())
+    cases.append(("winter", copy, read_winter_gait_cycle))
     return cases
 
 

@@ -11,9 +11,9 @@ import pytest
 from colloc.data.events import detect_heel_strikes, lowpass
 from colloc.data.records import read_vertical_grf
 
-SHARED = Path(__file__).resolve().parents[2] / ".." / "shared" / "data"
-GRF = SHARED / "gatk-grf-and-treadmill-speed" / "example_vertical_grf.csv"
-LEG2D = SHARED / "gatk-leg2d-sagittal-gait-3s" / "rawdata.txt"
+RECORDS = Path(__file__).resolve().parent / "records"  # copies with their SOURCE.md
+GRF = RECORDS / "gatk-grf-and-treadmill-speed" / "example_vertical_grf.csv"
+LEG2D = RECORDS / "gatk-leg2d-sagittal-gait-3s" / "rawdata.txt"
 
 # Force 600 sin(w t) - 300 N crosses 25 N upward where sin(w t) = 325/600.
 PERIOD = 1.2

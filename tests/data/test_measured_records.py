@@ -10,10 +10,13 @@ import pytest
 from colloc.data.belt import belt_position, read_belt_perturbation, rescale_belt_speed
 from colloc.data.records import read_vertical_grf, read_winter_gait_cycle
 
-SHARED = Path(__file__).resolve().parents[2] / ".." / "shared" / "data"
-BELT = SHARED / "treadmill-belt-perturbation-unloaded" / "RandomSlowSpeed1.txt"
-WINTER = SHARED / "winter-normal-gait-cycle" / "Winter_normal.csv"
-GRF = SHARED / "gatk-grf-and-treadmill-speed" / "example_vertical_grf.csv"
+# the package ships the belt record and Winter's cycle; the tests keep their own copies of the
+# rest (tests/data/records/*/SOURCE.md): a clone has nothing beside it
+REFERENCE = Path(__file__).resolve().parents[2] / "src" / "colloc" / "gait" / "reference"
+RECORDS = Path(__file__).resolve().parent / "records"
+BELT = REFERENCE / "RandomSlowSpeed1.txt"
+WINTER = REFERENCE / "Winter_normal.csv"
+GRF = RECORDS / "gatk-grf-and-treadmill-speed" / "example_vertical_grf.csv"
 
 
 def test_belt_perturbation_record() -> None:

@@ -13,9 +13,8 @@ from colloc.gait.orbit import GaitDynamics
 from colloc.gait.strikes import strike_phase, threshold_crossing
 from colloc.gait.walking_cycle import WalkingCycle
 
-BELT_FILE = (
-    Path(__file__).resolve().parents[3]
-    / "shared/data/treadmill-belt-perturbation-unloaded/RandomSlowSpeed1.txt"
+BELT_FILE = (  # the copy the package ships (src/colloc/gait/reference/SOURCE.md)
+    Path(__file__).resolve().parents[2] / "src/colloc/gait/reference/RandomSlowSpeed1.txt"
 )
 
 
