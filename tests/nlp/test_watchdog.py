@@ -121,3 +121,51 @@ def test_stall_seconds_is_validated():
     problem, z0, _ = decay_problem()
     with pytest.raises(ValueError, match="stall_seconds: expected a positive number"):
         problem.solve(z0, stall_seconds=0.0)
+
+
+ORPHAN_SCRIPT = """
+import os, sys, time
+from colloc.solve.watchdog import run_watched
+
+def task(report):
+    with open(sys.argv[1], "w") as f:
+        f.write(str(os.getpid()))
+    while True:  # reports far faster than anyone reads: blocks in the pipe write
+        report({"iteration": 0.0, "padding": "x" * 100000})
+
+run_watched(task, lambda row: time.sleep(3600), stall_seconds=3600)
+"""
+
+
+def test_the_solver_process_dies_with_a_killed_parent(tmp_path):
+    import signal
+    import subprocess
+    import sys
+
+    pid_file = tmp_path / "child.pid"
+    parent = subprocess.Popen([sys.executable, "-c", ORPHAN_SCRIPT, str(pid_file)])
+    try:
+        deadline = time.monotonic() + 60
+        while not (pid_file.is_file() and pid_file.read_text()) and time.monotonic() < deadline:
+            time.sleep(0.05)
+        child = int(pid_file.read_text())
+        time.sleep(0.5)  # the child is now blocked writing to the pipe
+        os.kill(child, 0)  # alive before
+        parent.send_signal(signal.SIGKILL)
+        parent.wait(timeout=10)
+        deadline = time.monotonic() + 5
+        while time.monotonic() < deadline:
+            try:
+                os.kill(child, 0)
+            except ProcessLookupError:
+                break
+            with open(f"/proc/{child}/stat") as stat:  # a zombie waiting for init is dead
+                if stat.read().split(") ")[1].startswith("Z"):
+                    break
+            time.sleep(0.05)
+        else:
+            os.kill(child, signal.SIGKILL)
+            pytest.fail("the solver process outlived its killed parent by 5 s")
+    finally:
+        if parent.poll() is None:
+            parent.kill()

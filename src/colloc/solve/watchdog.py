@@ -14,7 +14,11 @@ back pickled.
 from __future__ import annotations
 
 import contextlib
+import ctypes
 import multiprocessing
+import os
+import signal
+import sys
 import time
 import traceback
 from collections.abc import Callable
@@ -94,7 +98,9 @@ def run_watched(
     """
     context = multiprocessing.get_context("fork")
     parent_end, child_end = context.Pipe(duplex=True)
-    child = context.Process(target=_child, args=(task, child_end), daemon=True)
+    child = context.Process(
+        target=_child, args=(task, child_end, parent_end, os.getpid()), daemon=True
+    )
     child.start()
     child_end.close()
     limit, slowest, iterations, stopping = stall_seconds, 0.0, 0, False
@@ -139,8 +145,30 @@ def _wait(connection: Any, seconds: float) -> float | None:
     return None
 
 
-def _child(task: Callable[[Report], Any], connection: Any) -> None:
-    """The child's side: run the task, reporting each iteration and then the outcome."""
+#: ``prctl`` option that sends the calling process a signal when its parent dies (Linux).
+_PR_SET_PDEATHSIG = 1
+
+
+def _die_with_parent(parent: int) -> None:
+    """Have the kernel SIGKILL this process when ``parent`` dies (Linux), and leave at once
+    if it already has: a solver orphaned by a killed colloc must not run on, or block for
+    good writing to a pipe nobody reads."""
+    if sys.platform.startswith("linux"):
+        with contextlib.suppress(OSError, AttributeError):
+            ctypes.CDLL(None, use_errno=True).prctl(_PR_SET_PDEATHSIG, int(signal.SIGKILL))
+    if os.getppid() != parent:
+        os._exit(1)
+
+
+def _child(task: Callable[[Report], Any], connection: Any, parent_end: Any, parent: int) -> None:
+    """The child's side: run the task, reporting each iteration and then the outcome.
+
+    The fork copied the parent's end of the pipe into the child; it is closed first, so that
+    the parent's death closes the pipe for good (the child's writes then fail instead of
+    waiting for a reader that is its own copy).
+    """
+    parent_end.close()
+    _die_with_parent(parent)
 
     def report(row: dict[str, float]) -> bool:
         connection.send(("row", row))
