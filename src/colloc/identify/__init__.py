@@ -13,6 +13,13 @@ _EXPORTS = {
     "direct_estimate": "colloc.identify.direct",
     "fit_gain_schedule": "colloc.identify.direct",
     "smooth_with_derivatives": "colloc.identify.direct",
+    "GaitSmoother": "colloc.identify.gait_smoother",
+    "SmoothedGait": "colloc.identify.gait_smoother",
+    "SmootherError": "colloc.identify.gait_smoother",
+    "SmootherSettings": "colloc.identify.gait_smoother",
+    "SmootherStage": "colloc.identify.gait_smoother",
+    "consistent_completion": "colloc.identify.gait_smoother",
+    "lowpass": "colloc.identify.gait_smoother",
     "GAIN_GUESSES": "colloc.identify.guesses",
     "SCHEMES": "colloc.identify.pendulum",
     "PendulumRun": "colloc.identify.pendulum",
@@ -29,6 +36,15 @@ if TYPE_CHECKING:  # for type checkers; re-exported through __all__
         direct_estimate,
         fit_gain_schedule,
         smooth_with_derivatives,
+    )
+    from colloc.identify.gait_smoother import (
+        GaitSmoother,
+        SmoothedGait,
+        SmootherError,
+        SmootherSettings,
+        SmootherStage,
+        consistent_completion,
+        lowpass,
     )
     from colloc.identify.guesses import GAIN_GUESSES
     from colloc.identify.pendulum import SCHEMES, PendulumRun, run_pendulum

@@ -470,12 +470,9 @@ def _measured_states(t: np.ndarray, signals: Any, window: float) -> np.ndarray:
 
 
 def _noise_std(meta: dict[str, Any], column: str) -> float:
-    from colloc.gait.trials import COLUMN_NOISE_GROUP, DEFAULT_NOISE_STD
+    from colloc.identify.gait_smoother import trial_noise_std
 
-    group = COLUMN_NOISE_GROUP[column]
-    recorded = meta.get("noise", {}).get("std", {}) if isinstance(meta.get("noise"), dict) else {}
-    value = recorded.get(group) if isinstance(recorded, dict) else None
-    return float(value) if value else DEFAULT_NOISE_STD[group]
+    return trial_noise_std(meta, column)
 
 
 def _problem(

@@ -202,6 +202,8 @@ class SmoothedGait:
         The last stage's problem (midpoint at the model's contact).
     z : ndarray
         Its free vector at the solution.
+    notes : list of str
+        Anything the caller should know about the result.
     """
 
     times: np.ndarray
@@ -340,6 +342,19 @@ def consistent_completion(
     return z
 
 
+def trial_noise_std(meta: Mapping[str, Any], column: str) -> float:
+    """Noise standard deviation of a trial column: the trial's metadata records it
+    (``noise: std: group: value``), else the default lab noise of its group
+    (:data:`colloc.gait.trials.DEFAULT_NOISE_STD`)."""
+    from colloc.gait.trials import COLUMN_NOISE_GROUP, DEFAULT_NOISE_STD
+
+    group = COLUMN_NOISE_GROUP[column]
+    noise = meta.get("noise")
+    recorded = noise.get("std", {}) if isinstance(noise, Mapping) else {}
+    value = recorded.get(group) if isinstance(recorded, Mapping) else None
+    return float(value) if value else DEFAULT_NOISE_STD[group]
+
+
 class GaitSmoother:
     """The fully actuated gait2d smoother of one record (see the module's description).
 
@@ -420,6 +435,46 @@ class GaitSmoother:
         self._measured, self._weights = measured, weights
         self._friction = gait.contact_symbols.friction_velocity
         self.model_friction_velocity = float(dynamics.constants[self._friction])
+
+    @classmethod
+    def from_trial(
+        cls,
+        dynamics: Any,
+        trial: Any,
+        rows: np.ndarray,
+        settings: SmootherSettings | None = None,
+    ) -> GaitSmoother:
+        """The smoother of the samples ``rows`` of a trial (:func:`colloc.data.read_trial`):
+        its trunk pose and joint angles, belt speed and, when it has them, joint torques,
+        each weighted by its noise level (:func:`trial_noise_std`).
+
+        Parameters
+        ----------
+        dynamics : GaitDynamics
+        trial : Trial
+        rows : ndarray of int
+            Consecutive sample indices.
+        settings : SmootherSettings, optional
+
+        Returns
+        -------
+        GaitSmoother
+        """
+        from colloc.data.columns import JOINT_ANGLE_COLUMNS, TORQUE_COLUMNS, TRUNK_COLUMNS
+
+        signals = trial.signals.iloc[np.asarray(rows)]
+        positions = list(TRUNK_COLUMNS + JOINT_ANGLE_COLUMNS)
+        has_torques = all(c in signals.columns for c in TORQUE_COLUMNS)
+        return cls(
+            dynamics,
+            trial.time[np.asarray(rows)],
+            signals[positions].to_numpy(dtype=float),
+            signals["belt_speed"].to_numpy(dtype=float),
+            np.array([trial_noise_std(trial.metadata, c) for c in positions]),
+            signals[list(TORQUE_COLUMNS)].to_numpy(dtype=float) if has_torques else None,
+            trial_noise_std(trial.metadata, TORQUE_COLUMNS[0]),
+            settings,
+        )
 
     def problem(self, scheme: Any, friction_velocity: float) -> Any:
         """The smoother's collocation problem with ``scheme`` at a contact slip scale."""
