@@ -193,7 +193,7 @@ def test_settings_and_arrays_are_checked_with_every_problem_named(window, dynami
         GaitSmoother(dynamics, t, q, v, STD, T, settings=bad)
 
 
-def test_windows_overlap_and_their_kept_parts_tile_the_record(window, dynamics):
+def test_windows_overlap_and_their_kept_parts_tile_the_record(dynamics):
     t = np.arange(0.0, 25.0 + 1e-9, 0.01)
     N = t.size
     smoother = GaitSmoother(

@@ -109,6 +109,21 @@ def _stack(value: list[Any], N: int, shape: tuple[int, int]) -> np.ndarray:
     return out.reshape(N, *shape)
 
 
+def uniform_step(times: np.ndarray, purpose: str) -> float:
+    """The sampling interval of uniformly sampled ``times``.
+
+    Raises
+    ------
+    ValueError
+        When the steps differ (relative 1e-6), naming ``purpose``.
+    """
+    steps = np.diff(np.asarray(times, dtype=float))
+    h = float(np.mean(steps))
+    if not np.allclose(steps, h, rtol=1e-6, atol=1e-12):
+        raise ValueError(f"times: expected uniform sampling for {purpose}")
+    return h
+
+
 def smooth_with_derivatives(
     times: np.ndarray, values: np.ndarray, window: float, order: int = 3
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -130,9 +145,7 @@ def smooth_with_derivatives(
     """
     from scipy.signal import savgol_filter  # scipy.signal costs ~0.8 s to import
 
-    h = float(np.mean(np.diff(times)))
-    if not np.allclose(np.diff(times), h, rtol=1e-6, atol=1e-12):
-        raise ValueError("times: expected uniform sampling for Savitzky-Golay smoothing")
+    h = uniform_step(times, "Savitzky-Golay smoothing")
     samples = max(order + 2, int(round(window / h)) | 1)
     if samples > len(times):
         raise ValueError(

@@ -469,12 +469,6 @@ def _measured_states(t: np.ndarray, signals: Any, window: float) -> np.ndarray:
 # ----------------------------------------------------------------------------- the problem
 
 
-def _noise_std(meta: dict[str, Any], column: str) -> float:
-    from colloc.identify.gait_smoother import trial_noise_std
-
-    return trial_noise_std(meta, column)
-
-
 def _problem(
     settings: GaitIdentifySettings,
     dyn: Any,
@@ -487,6 +481,7 @@ def _problem(
     """The collocation problem; its tracking weights are ``1 / (sigma^2 N)``."""
     from sympy.physics.mechanics import dynamicsymbols
 
+    from colloc.identify.gait_smoother import trial_noise_std
     from colloc.model.symbols import name_of
     from colloc.nlp.objective import Tracking
     from colloc.nlp.problem import Problem
@@ -499,7 +494,9 @@ def _problem(
     tracked = [by_column[c] for c in columns]
     N = t.size
     measured = {y: signals[c].to_numpy(dtype=float) for y, c in zip(tracked, columns, strict=True)}
-    weights = {y: 1.0 / _noise_std(meta, c) ** 2 / N for y, c in zip(tracked, columns, strict=True)}
+    weights = {
+        y: 1.0 / trial_noise_std(meta, c) ** 2 / N for y, c in zip(tracked, columns, strict=True)
+    }
     plant = model.with_outputs(tracked)
     process_noise = None
     if settings.process_noise is not None:

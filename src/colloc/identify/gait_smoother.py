@@ -26,6 +26,7 @@ Each stage reports what it did (:class:`SmootherStage`); a stage that fails rais
 
 from __future__ import annotations
 
+import copy
 import time
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
@@ -253,9 +254,9 @@ def lowpass(times: np.ndarray, values: np.ndarray, cutoff_hz: float, order: int 
     """
     from scipy.signal import butter, filtfilt
 
-    h = float(np.mean(np.diff(times)))
-    if not np.allclose(np.diff(times), h, rtol=1e-6, atol=1e-12):
-        raise ValueError("times: expected uniform sampling for the Butterworth filter")
+    from colloc.identify.direct import uniform_step
+
+    h = uniform_step(times, "the Butterworth filter")
     nyquist = 0.5 / h
     if not 0 < cutoff_hz < nyquist:
         raise ValueError(
@@ -414,9 +415,6 @@ class GaitSmoother:
         self.dynamics = dynamics
         gait, model = dynamics.gait, dynamics.model
         self.positions = arrays["positions"][0]
-        self._noise_std = arrays["noise_std"][0]
-        self._torques = None if torques is None else arrays["torques"][0]
-        self._torque_std = float(torque_std)
         self.belt_speed = arrays["belt_speed"][0]
         self.residual_inputs = tuple(dynamicsymbols(f"trunk_residual_{i}") for i in range(3))
         half = model.num_states // 2
@@ -599,18 +597,15 @@ class GaitSmoother:
         ]
 
     def _part(self, first: int, stop: int) -> GaitSmoother:
-        """The smoother of nodes ``first:stop`` with the same settings."""
+        """The smoother of nodes ``first:stop``: the same model and settings (derived and
+        checked once), the arrays sliced."""
         window = slice(first, stop)
-        return GaitSmoother(
-            self.dynamics,
-            self.times[window],
-            self.positions[window],
-            self.belt_speed[window],
-            self._noise_std,
-            None if self._torques is None else self._torques[window],
-            self._torque_std,
-            self.settings,
-        )
+        part = copy.copy(self)
+        part.times = self.times[window]
+        part.positions = self.positions[window]
+        part.belt_speed = self.belt_speed[window]
+        part._measured = {y: values[window] for y, values in self._measured.items()}
+        return part
 
     def _backward_euler(self, say: Progress, stages: list[SmootherStage]) -> np.ndarray:
         """The zero-defect start and backward Euler at the smoothed contact, window by
