@@ -16,6 +16,7 @@ from colloc.identify.gait_settings import GaitIdentifySettings
 
 FIXTURE = Path(__file__).parent / "data" / "gait_trial_p20"
 ARGS = ["--phase", "controller", "--fit-fraction", "0.6", "--max-iter", "0", "--no-plots"]
+ARGS += ["--method", "closed-loop"]  # the smoother is measured in tests/identify/test_gait_fit.py
 
 
 @pytest.fixture(scope="module")
@@ -65,7 +66,7 @@ def test_the_run_is_stored_with_its_own_kind_and_a_deterministic_id(identified, 
 
     class Run:  # the id depends on the settings and the data digest only
         settings = GaitIdentifySettings(
-            trial=tmp_path, phase="controller", fit_fraction=0.6, max_iter=0
+            trial=tmp_path, phase="controller", fit_fraction=0.6, max_iter=0, method="closed-loop"
         )
         data_digest = ""
 
@@ -129,6 +130,7 @@ def test_process_noise_fit_estimates_disturbances_and_reports_sandwich_errors(tm
     window's strides, and the settings are recorded."""
     out = tmp_path / "s.json"
     args = ["--phase", "controller", "--fit-fraction", "0.6", "--max-iter", "1"]
+    args += ["--method", "closed-loop"]
     code = main(
         ["gait", "identify", str(FIXTURE), *args, "--no-plots", "--no-store", "--no-simulate"]
         + ["--process-noise", "1,2", "--json", str(out)]

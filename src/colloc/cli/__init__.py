@@ -148,6 +148,14 @@ def _identify_parser(gs: Any, default_url: str) -> None:
     )
     idp.add_argument("--guess", choices=gi.GUESSES, default=d.guess)
     idp.add_argument(
+        "--method",
+        choices=gi.METHODS,
+        default=d.method,
+        help="the smoother (the model fully actuated, fitted to the data; then the schedule's "
+        "least squares on its signals) or the closed-loop collocation problem "
+        "(default %(default)s)",
+    )
+    idp.add_argument(
         "--track",
         default=",".join(d.track),
         help=f"tracked signals, comma-separated from {list(gi.TRACK_CHOICES)} "
@@ -683,6 +691,7 @@ def gait_identify_checks(
         simulate_validation=not args.no_simulate,
         seed=args.seed,
         process_noise=args.process_noise,
+        method=args.method,
     )
     outputs = _output_problems(args.json, None if args.no_plots else args.out)
     return settings, settings.problems(require_trial=require_trial) + outputs

@@ -230,19 +230,12 @@ def fit_gain_schedule(
             problems.append(f"{label}: expected finite values, found NaN or inf")
     if problems:
         raise ValueError("fit_gain_schedule: " + "; ".join(problems))
-    a, b, w = controller.schedule.bracket(phase)
     Tstar, K = np.zeros((P, m)), np.zeros((P, m, ns))
     residual = np.empty_like(inputs)
-    rows = np.arange(N)
     for i in range(m):
-        allowed = np.flatnonzero(controller.mask[i])
+        design, allowed = schedule_design(controller, phase, feedback, i)
         width = 1 + allowed.size
-        local = np.hstack([np.ones((N, 1)), -feedback[:, allowed]])
-        design = np.zeros((N, P * width))
-        for point, weight in ((a, 1.0 - w), (b, w)):
-            columns = point[:, None] * width + np.arange(width)
-            design[rows[:, None], columns] += weight[:, None] * local
-        _check_determined(design, width, controller, i)
+        check_determined(design, width, controller, i)
         theta, *_ = np.linalg.lstsq(design, inputs[:, i], rcond=None)
         theta = theta.reshape(P, width)
         Tstar[:, i] = theta[:, 0]
@@ -251,7 +244,51 @@ def fit_gain_schedule(
     return ScheduleFit(Tstar, K, residual)
 
 
-def _check_determined(design: np.ndarray, width: int, controller: GainScheduled, i: int) -> None:
+def schedule_design(
+    controller: GainScheduled,
+    phase: np.ndarray,
+    feedback: np.ndarray,
+    i: int,
+    constant: bool = True,
+) -> tuple[np.ndarray, np.ndarray]:
+    """The least-squares design of input ``i`` of ``T = T*(phi) - K(phi) s``.
+
+    Parameters
+    ----------
+    controller : GainScheduled
+    phase : ndarray, shape (N,)
+        Unwrapped phase in cycles.
+    feedback : ndarray, shape (N, n_s)
+    i : int
+        The input (row of ``controller.mask``).
+    constant : bool
+        False: zero the ``T*`` columns (the design of an error in ``s`` alone).
+
+    Returns
+    -------
+    design : ndarray, shape (N, P * (1 + a))
+        Columns point-major: ``T*`` then the ``a`` allowed gains of each schedule point,
+        weighted by the controller's periodic linear interpolation in the phase.
+    allowed : ndarray of int
+        The feedback columns input ``i`` may use.
+    """
+    P = controller.num_points
+    N = phase.shape[0]
+    a, b, w = controller.schedule.bracket(phase)
+    allowed = np.flatnonzero(controller.mask[i])
+    width = 1 + allowed.size
+    ones = np.ones((N, 1)) if constant else np.zeros((N, 1))
+    local = np.hstack([ones, -feedback[:, allowed]])
+    design = np.zeros((N, P * width))
+    rows = np.arange(N)
+    for point, weight in ((a, 1.0 - w), (b, w)):
+        design[rows[:, None], point[:, None] * width + np.arange(width)] += weight[:, None] * local
+    return design, allowed
+
+
+def check_determined(design: np.ndarray, width: int, controller: GainScheduled, i: int) -> None:
+    """Raise ``ValueError`` naming the schedule points of input ``i`` that ``design`` (from
+    :func:`schedule_design`, ``width`` columns a point) does not determine."""
     # the normal matrix is block tridiagonal in the points; a point is undetermined when its
     # block column has rank below its width (no data, or too few distinct samples nearby)
     P = controller.num_points

@@ -57,12 +57,15 @@ JOINT_NAMES = tuple(c.removesuffix("_torque") for c in TORQUE_COLUMNS)
 
 @dataclass
 class ControllerEstimate:
-    """One controller ``T*``, ``K`` with optional standard errors."""
+    """One controller ``T*``, ``K`` with optional standard errors and the square roots of the
+    Cramer-Rao bound's diagonal (the best standard deviations the design allows)."""
 
     Tstar: np.ndarray
     K: np.ndarray
     Tstar_se: np.ndarray | None = None
     K_se: np.ndarray | None = None
+    Tstar_bound: np.ndarray | None = None
+    K_bound: np.ndarray | None = None
 
 
 @dataclass
@@ -212,6 +215,89 @@ def identify_gait(
     direct = ControllerEstimate(direct_fit.Tstar, direct_fit.K)
     lap("direct")
 
+    context = _FitContext(
+        settings, data, dyn, gs, t, signals, phase, states, direct, say, iterations, notes, lap
+    )
+    outcome = _FITS[settings.method](context)
+    collocation = outcome.estimate
+
+    truth = _truth(meta, data, gs, notes)
+    say("validate", f"held-out {data.held_out.time[-1] - data.held_out.time[0]:.1f} s")
+    validation = _validate(settings, data, dyn, gs, {"collocation": collocation, "direct": direct})
+    lap("validate")
+
+    return GaitIdentification(
+        settings=settings,
+        feedback=list(data.feedback),
+        mask=gs.mask.copy(),
+        points=data.points,
+        collocation=collocation,
+        direct=direct,
+        truth=truth,
+        window=(float(t[0]), float(t[-1])),
+        split_time=float(data.held_out.time[0]),
+        times=t,
+        measured=signals[list(JOINT_ANGLE_COLUMNS)].to_numpy(),
+        fitted=outcome.fitted,
+        solver=outcome.solver,
+        validation=validation,
+        metrics=_metrics(collocation, direct, truth, gs.mask),
+        problem_size=outcome.problem_size,
+        data_digest=_digest(data.trial),
+        timings=timings,
+        peak_rss_mb=resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024,
+        notes=notes,
+    )
+
+
+# ----------------------------------------------------------------------------- the fits
+
+
+@dataclass
+class _FitContext:
+    """What both fits read: the settings, the data and the direct start."""
+
+    settings: GaitIdentifySettings
+    data: _Data
+    dyn: Any
+    gs: GainScheduled
+    t: np.ndarray
+    signals: Any
+    phase: np.ndarray
+    states: np.ndarray
+    direct: ControllerEstimate
+    say: Progress
+    iterations: Iterations | None
+    notes: list[str]
+    lap: Callable[[str], None]
+
+
+@dataclass
+class _Fit:
+    """A fit's estimate, solver record, problem size and fitted joint angles."""
+
+    estimate: ControllerEstimate
+    solver: dict[str, Any]
+    problem_size: dict[str, int]
+    fitted: np.ndarray
+
+
+def _closed_loop_fit(c: _FitContext) -> _Fit:
+    """The closed-loop collocation problem (all states free, the schedule's parameters in the
+    dynamics) solved by constrained Gauss-Newton from the direct start."""
+    settings, data, dyn, gs, t, signals, phase, states, direct = (
+        c.settings,
+        c.data,
+        c.dyn,
+        c.gs,
+        c.t,
+        c.signals,
+        c.phase,
+        c.states,
+        c.direct,
+    )
+    say, iterations, notes, lap, meta = c.say, c.iterations, c.notes, c.lap, data.trial.metadata
+    model = dyn.model
     say("build", f"{t.size} nodes, {len(gs.parameters)} controller parameters")
     problem, weights_n = _problem(settings, dyn, gs, t, signals, phase, meta)
     guess = (
@@ -244,29 +330,12 @@ def identify_gait(
         strides = np.r_[0, inside[inside > 0]]
         say("uncertainty", f"sandwich over {strides.size} strides")
     Tstar_se, K_se = _standard_errors(problem, solution, gs, weights_n, notes, strides)
-    collocation = ControllerEstimate(Tstar, K, Tstar_se, K_se)
     lap("uncertainty")
 
-    truth = _truth(meta, data, gs, notes)
-    say("validate", f"held-out {data.held_out.time[-1] - data.held_out.time[0]:.1f} s")
-    validation = _validate(settings, data, dyn, gs, {"collocation": collocation, "direct": direct})
-    lap("validate")
-
-    fitted = np.column_stack([solution.trajectories[x] for x in model.states[3:9]])
-    return GaitIdentification(
-        settings=settings,
-        feedback=list(data.feedback),
-        mask=gs.mask.copy(),
-        points=data.points,
-        collocation=collocation,
-        direct=direct,
-        truth=truth,
-        window=(float(t[0]), float(t[-1])),
-        split_time=float(data.held_out.time[0]),
-        times=t,
-        measured=signals[list(JOINT_ANGLE_COLUMNS)].to_numpy(),
-        fitted=fitted,
-        solver={
+    stats = solution.stats
+    return _Fit(
+        ControllerEstimate(Tstar, K, Tstar_se, K_se),
+        {
             "status": stats["status"],
             "success": bool(stats["success"]),
             "iterations": int(stats["iterations"]),
@@ -275,9 +344,7 @@ def identify_gait(
             "message": stats.get("message", ""),
             "log": stats.get("ipopt_log", ""),
         },
-        validation=validation,
-        metrics=_metrics(collocation, direct, truth, gs.mask),
-        problem_size={
+        {
             "nodes": int(t.size),
             "variables": int(problem.layout.num_variables),
             "constraints": int(problem.layout.num_constraints),
@@ -285,11 +352,84 @@ def identify_gait(
             "nnz_jacobian": int(problem.nlp.nnz_jacobian),
             "nnz_hessian": int(problem.nlp.nnz_hessian),
         },
-        data_digest=_digest(data.trial),
-        timings=timings,
-        peak_rss_mb=resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024,
-        notes=notes,
+        np.column_stack([solution.trajectories[x] for x in model.states[3:9]]),
     )
+
+
+def _smoother_fit(c: _FitContext) -> _Fit:
+    """The dynamically consistent smoother (:mod:`colloc.identify.gait_smoother`), then the
+    schedule's least squares on its signals at the interval midpoints, with stride-sandwich
+    errors and the bound of the design (:mod:`colloc.identify.gait_controller_fit`)."""
+    from colloc.identify.gait_controller_fit import fit_schedule_with_errors
+    from colloc.identify.gait_smoother import GaitSmoother, SmootherSettings, trial_noise_std
+
+    settings, data, dyn, gs = c.settings, c.data, c.dyn, c.gs
+    meta = data.trial.metadata
+    smoother = GaitSmoother.from_trial(dyn, data.fit, data.rows, SmootherSettings())
+    c.say("smooth", f"{c.t.size} nodes: backward Euler, midpoint, contact continuation")
+    result = smoother.run(progress=lambda stage, detail: c.say("smooth", f"{stage}: {detail}"))
+    c.lap("smooth")
+
+    mid_t, mid_states, mid_torques = result.at_intervals()
+    if settings.phase == "controller":
+        mid_phase = 0.5 * (c.phase[1:] + c.phase[:-1])
+    else:
+        mid_phase = unwrapped_gait_phase(mid_t, data.trial.right_heel_strikes)
+    ok = np.isfinite(mid_phase)
+    index = {n: i for i, n in enumerate(_state_names())}
+    feedback = mid_states[:, [index[n] for n in data.feedback]]
+    strides = np.searchsorted(data.trial.right_heel_strikes, mid_t)
+    torque_std = trial_noise_std(meta, TORQUE_COLUMNS[0])
+    motor = meta.get("motor_noise")
+    motor_std = float(motor.get("std", 0.0)) if isinstance(motor, dict) else None
+    noise = None if motor_std is None else np.full(6, np.hypot(torque_std, motor_std))
+    c.say(
+        "controller",
+        f"least squares at {int(ok.sum())} interval midpoints, sandwich over strides",
+    )
+    est = fit_schedule_with_errors(
+        gs, mid_phase[ok], feedback[ok], mid_torques[ok], strides[ok], noise
+    )
+    c.notes.append(
+        f"standard errors: sandwich over {est.blocks} strides; bound: least squares with the "
+        "fed-back states known, torque noise "
+        + (
+            f"{float(noise[0]):.3g} N m (measurement and motor noise recorded in the trial)"
+            if noise is not None
+            else "the residual's (no motor noise recorded)"
+        )
+    )
+    c.lap("controller")
+    last = result.stages[-1]
+    problem = result.problem
+    return _Fit(
+        ControllerEstimate(est.Tstar, est.K, est.Tstar_se, est.K_se, est.Tstar_bound, est.K_bound),
+        {
+            "status": last.status,
+            "success": all(s.success for s in result.stages),
+            "iterations": int(sum(s.iterations for s in result.stages)),
+            "objective": last.objective,
+            "constraint_violation": last.max_defect,
+            "message": "; ".join(s.describe() for s in result.stages),
+            "log": "",
+        },
+        {
+            "nodes": int(c.t.size),
+            "variables": int(problem.layout.num_variables),
+            "constraints": int(problem.layout.num_constraints),
+            "parameters": len(gs.parameters),
+            "nnz_jacobian": int(problem.nlp.nnz_jacobian),
+            "nnz_hessian": int(problem.nlp.nnz_hessian),
+        },
+        result.states[:, 3:9].copy(),
+    )
+
+
+#: ``GaitIdentifySettings.method`` -> the fit.
+_FITS: dict[str, Callable[[_FitContext], _Fit]] = {
+    "smoother": _smoother_fit,
+    "closed-loop": _closed_loop_fit,
+}
 
 
 # ----------------------------------------------------------------------------- reading
@@ -597,8 +737,17 @@ def _metrics(
             "direct_K_relative_error",
             "direct_Tstar_relative_error",
             "fraction_within_3se",
+            "K_relative_bound",
+            "Tstar_relative_bound",
         )
     )
+    if collocation.K_bound is not None and collocation.Tstar_bound is not None:
+        from colloc.identify.gait_controller_fit import relative_spread
+
+        # relative to the truth when there is one, else to the estimate
+        reference = truth or collocation
+        out["K_relative_bound"] = relative_spread(collocation.K_bound, reference.K)
+        out["Tstar_relative_bound"] = relative_spread(collocation.Tstar_bound, reference.Tstar)
     if truth is None:
         return out
     for prefix, est in (("", collocation), ("direct_", direct)):

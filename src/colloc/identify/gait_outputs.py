@@ -45,6 +45,14 @@ def gait_summary(run: GaitIdentification, run_id: str) -> dict[str, Any]:
                 "angle_rms": v.get("angle_rms_deg"),
                 "angle_vaf": v.get("angle_vaf"),
             },
+            # fitted against measured joint angles over the fit window, degrees
+            "fit_angle_rms": dict(
+                zip(
+                    JOINT_NAMES,
+                    np.degrees(np.sqrt(np.mean((run.fitted - run.measured) ** 2, axis=0))),
+                    strict=True,
+                )
+            ),
             "status": run.solver["status"],
             "success": run.solver["success"],
             "iterations": run.solver["iterations"],

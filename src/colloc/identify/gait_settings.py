@@ -26,6 +26,10 @@ DEFAULT_TRACK = ("angles", "trunk", "torques")
 #: torques on the measured feedback), or all zero.
 GUESSES = ("direct", "zero")
 SCHEMES = ("midpoint", "backward-euler")
+#: ``--method``: the dynamically consistent smoother then the schedule's least squares on its
+#: signals (converges on noisy trials), or the closed-loop collocation problem solved by
+#: constrained Gauss-Newton (exact on noise-free trials; diverges on noisy ones).
+METHODS = ("smoother", "closed-loop")
 STRUCTURES = ("full", "joint-isolated")
 #: Schedule points when neither ``points`` nor the trial's metadata give them.
 DEFAULT_POINTS = 20
@@ -74,6 +78,8 @@ class GaitIdentifySettings:
         Walk the identified controller through the held-out part (forward simulation).
     seed : int
         Seeds any random draw (none in the default settings; recorded with the run).
+    method : str
+        One of :data:`METHODS`.
     process_noise : tuple of float or None
         ``(joint, trunk)``: standard deviations of the motor noise on each joint torque [N m]
         and of a residual force on each trunk coordinate [N, N, N m] per sample, estimated as
@@ -98,6 +104,7 @@ class GaitIdentifySettings:
     simulate_validation: bool = True
     seed: int = 0
     process_noise: tuple[float, float] | None = None
+    method: str = "smoother"
 
     def problems(self, *, require_trial: bool = True) -> list[str]:
         """Every problem with the settings (empty when valid); the trial is not read.
@@ -123,6 +130,7 @@ class GaitIdentifySettings:
             ("scheme", SCHEMES),
             ("phase", PHASES),
             ("guess", GUESSES),
+            ("method", METHODS),
         ):
             if getattr(self, name) not in choices:
                 out.append(
@@ -155,6 +163,11 @@ class GaitIdentifySettings:
         if not (_integer(self.seed) and self.seed >= 0):
             out.append(f"seed: expected an integer >= 0, found {self.seed!r}")
         noise = self.process_noise
+        if noise is not None and self.method != "closed-loop":
+            out.append(
+                f"process_noise: an option of method 'closed-loop' (the smoother's torques are "
+                f"free already), found method {self.method!r}"
+            )
         if noise is not None and not (
             isinstance(noise, tuple)
             and len(noise) == 2

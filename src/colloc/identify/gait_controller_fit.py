@@ -1,0 +1,157 @@
+"""The gain schedule from smoothed signals, with stride-sandwich errors and its bound.
+
+Given the dynamically consistent smoother's states and torques (:mod:`colloc.identify.
+gait_smoother`), ``T = T*(phi) - K(phi) s + e`` is linear in the schedule's values, so each
+torque's ``T*`` and allowed gains come from one least squares. The signals are read where the
+midpoint rule holds the dynamics, the interval midpoints: averages of neighbouring nodes cancel
+the rule's odd-even mode, which leaves the smoothed node rates 3-50 deg/s from the truth on the
+measured trials (``docs/gait.md``).
+
+Standard errors are the sandwich over strides: the torque residuals are correlated within a
+stride (the smoother's errors, the schedule's interpolation), independent between strides.
+The bound is the Cramer-Rao bound of the same least squares with the fed-back states known
+exactly and the torque equation's noise (measurement and motor noise) known: no estimator of
+this design can do better, so it is a lower bound for the collocation design too.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from colloc.control.gain_scheduled import GainScheduled
+from colloc.identify.direct import check_determined, schedule_design
+
+
+@dataclass
+class ScheduleEstimate:
+    """A gain schedule with standard errors and the bound of its design.
+
+    Attributes
+    ----------
+    Tstar : ndarray, shape (P, m)
+    K : ndarray, shape (P, m, n_s)
+        Zero outside the controller's structure.
+    Tstar_se, K_se : ndarray
+        Sandwich standard errors over the blocks (zero outside the structure).
+    Tstar_bound, K_bound : ndarray
+        Square roots of the Cramer-Rao bound's diagonal (zero outside the structure).
+    residual_std : ndarray, shape (m,)
+        Root mean square of each torque's residual.
+    noise_std : ndarray, shape (m,)
+        The torque equation's noise used for the bound.
+    blocks : int
+        Number of blocks (strides) of the sandwich.
+    """
+
+    Tstar: np.ndarray
+    K: np.ndarray
+    Tstar_se: np.ndarray
+    K_se: np.ndarray
+    Tstar_bound: np.ndarray
+    K_bound: np.ndarray
+    residual_std: np.ndarray
+    noise_std: np.ndarray
+    blocks: int
+
+
+def fit_schedule_with_errors(
+    controller: GainScheduled,
+    phase: np.ndarray,
+    feedback: np.ndarray,
+    inputs: np.ndarray,
+    blocks: np.ndarray,
+    noise_std: np.ndarray | None = None,
+) -> ScheduleEstimate:
+    """Least squares of ``T = T*(phi) - K(phi) s`` with sandwich errors and the bound.
+
+    Parameters
+    ----------
+    controller : GainScheduled
+    phase : ndarray, shape (N,)
+        Unwrapped phase in cycles.
+    feedback : ndarray, shape (N, n_s)
+        ``s`` in the order of ``controller.feedback``.
+    inputs : ndarray, shape (N, m)
+        ``T`` in the order of ``controller.inputs``.
+    blocks : ndarray of int, shape (N,)
+        The block (stride) of each sample; the sandwich sums each block's score.
+    noise_std : ndarray, shape (m,), optional
+        Standard deviation of each torque equation's noise for the bound; default the
+        residual's root mean square.
+
+    Returns
+    -------
+    ScheduleEstimate
+
+    Raises
+    ------
+    ValueError
+        When the arrays disagree in shape or are not finite, fewer than two blocks are
+        given, or the data do not determine a schedule point (as
+        :func:`colloc.identify.fit_gain_schedule`).
+    """
+    P, m, ns = controller.num_points, len(controller.inputs), len(controller.feedback)
+    phase, feedback, inputs = (np.asarray(a, dtype=float) for a in (phase, feedback, inputs))
+    blocks = np.asarray(blocks)
+    N = phase.shape[0] if phase.ndim == 1 else -1
+    problems = []
+    for label, arr, shape in (
+        ("phase", phase, (N,)),
+        ("feedback", feedback, (N, ns)),
+        ("inputs", inputs, (N, m)),
+        ("blocks", blocks, (N,)),
+    ):
+        if arr.shape != shape:
+            problems.append(f"{label}: expected shape {shape}, found {arr.shape}")
+        elif label != "blocks" and not np.all(np.isfinite(arr)):
+            problems.append(f"{label}: expected finite values, found NaN or inf")
+    if not problems and np.unique(blocks).size < 2:
+        problems.append("blocks: expected at least two blocks (strides) for the sandwich")
+    if noise_std is not None and np.shape(noise_std) != (m,):
+        problems.append(f"noise_std: expected shape ({m},), found {np.shape(noise_std)}")
+    if problems:
+        raise ValueError("fit_schedule_with_errors: " + "; ".join(problems))
+    labels = np.unique(blocks, return_inverse=True)[1]
+    out = {k: np.zeros((P, m)) for k in ("Tstar", "Tstar_se", "Tstar_bound")}
+    out |= {k: np.zeros((P, m, ns)) for k in ("K", "K_se", "K_bound")}
+    residual_std, used_std = np.zeros(m), np.zeros(m)
+    for i in range(m):
+        design, allowed = schedule_design(controller, phase, feedback, i)
+        width = 1 + allowed.size
+        check_determined(design, width, controller, i)
+        normal_inverse = np.linalg.inv(design.T @ design)
+        theta = normal_inverse @ (design.T @ inputs[:, i])
+        residual = inputs[:, i] - design @ theta
+        scores = np.zeros((labels.max() + 1, theta.size))
+        np.add.at(scores, labels, design * residual[:, None])
+        sandwich = normal_inverse @ (scores.T @ scores) @ normal_inverse
+        residual_std[i] = float(np.sqrt(np.mean(residual**2)))
+        used_std[i] = residual_std[i] if noise_std is None else float(noise_std[i])
+        bound = used_std[i] ** 2 * normal_inverse
+        for key, values in (
+            ("", theta),
+            ("_se", np.sqrt(np.clip(np.diag(sandwich), 0.0, None))),
+            ("_bound", np.sqrt(np.clip(np.diag(bound), 0.0, None))),
+        ):
+            values = values.reshape(P, width)
+            out["Tstar" + key][:, i] = values[:, 0]
+            out["K" + key][:, i, allowed] = values[:, 1:]
+    return ScheduleEstimate(
+        out["Tstar"],
+        out["K"],
+        out["Tstar_se"],
+        out["K_se"],
+        out["Tstar_bound"],
+        out["K_bound"],
+        residual_std,
+        used_std,
+        int(labels.max() + 1),
+    )
+
+
+def relative_spread(spread: np.ndarray, reference: np.ndarray) -> float:
+    """``sqrt(sum spread^2) / |reference|``: the relative error a set of standard deviations
+    stands for, comparable with ``|estimate - truth| / |truth|``."""
+    return float(np.sqrt(np.sum(np.asarray(spread) ** 2)) / np.linalg.norm(reference))
