@@ -136,3 +136,18 @@ def test_bad_arguments_are_all_reported(standing):
         simulate_walking(standing, np.zeros((4, 6)), np.zeros((4, 6, 12)), 1.0, torque_noise=-1)
     with pytest.raises(ValueError, match="duration: expected a positive number"):
         perturbation_belt_speed(BELT_FILE, 1.2, 0.0)
+
+
+def test_the_record_carries_each_foots_ground_reaction(dyn, standing, controller):
+    _, Tstar, K, _ = controller
+    rec = simulate_walking(standing, Tstar, K, 0.3, dynamics=dyn)
+    grf = rec.ground_reactions
+    np.testing.assert_allclose(grf[:, [1, 4]], rec.vertical_grf)  # the same vertical forces
+    fx = rec.contact_forces[:, 0::2]
+    np.testing.assert_allclose(
+        grf[:, [0, 3]], np.column_stack([fx[:, :2].sum(1), fx[:, 2:].sum(1)])
+    )
+    # standing on both feet: each centre of pressure lies between its heel and toe
+    x = np.asarray(dyn.contact_positions.map(rec.times.size)(rec.states.T)).T
+    for cop, heel, toe in ((grf[:, 2], x[:, 0], x[:, 1]), (grf[:, 5], x[:, 2], x[:, 3])):
+        assert np.all((cop >= np.minimum(heel, toe) - 1e-9) & (cop <= np.maximum(heel, toe) + 1e-9))

@@ -9,6 +9,7 @@ import numpy as np
 import pytest
 
 from colloc.data.columns import (
+    GRF_COLUMNS,
     JOINT_ANGLE_COLUMNS,
     JOINT_RATE_COLUMNS,
     SIGNAL_COLUMNS,
@@ -38,6 +39,7 @@ class FakeRecord:
     belt_position: np.ndarray
     right_heel_strikes: np.ndarray
     left_heel_strikes: np.ndarray
+    ground_reactions: np.ndarray | None = None
 
 
 def make_record(duration: float = 6.0, step: float = 0.005) -> FakeRecord:
@@ -69,7 +71,8 @@ def test_true_signals_map_states_to_canonical_columns():
     record = make_record()
     time, frame = true_signals(record)
     q, u = record.states[:, :9], record.states[:, 9:]
-    assert list(frame.columns) == list(SIGNAL_COLUMNS)
+    # a record without ground reactions gives every column but theirs
+    assert list(frame.columns) == [c for c in SIGNAL_COLUMNS if c not in GRF_COLUMNS]
     np.testing.assert_array_equal(time, record.times)
     # Right hip/knee/ankle = qb, qc, qd; left = qe, qf, qg (gait2d order).
     for i, name in enumerate(JOINT_ANGLE_COLUMNS):
@@ -183,7 +186,8 @@ def test_written_trial_round_trips_with_the_true_controller(tmp_path):
     directory = trial.write(tmp_path / "trial")
     back = read_trial(directory)
     np.testing.assert_array_equal(back.time, trial.time)
-    np.testing.assert_array_equal(back.signals[list(SIGNAL_COLUMNS)], trial.signals)
+    written = [c for c in SIGNAL_COLUMNS if c in trial.signals.columns]
+    np.testing.assert_array_equal(back.signals[written], trial.signals)
     np.testing.assert_array_equal(back.right_heel_strikes, trial.right_heel_strikes)
     np.testing.assert_array_equal(back.left_heel_strikes, trial.left_heel_strikes)
     Tstar_back, K_back, mask_back = controller_from_metadata(back.metadata)
@@ -615,3 +619,40 @@ def test_a_cycle_that_does_not_settle_is_reported_with_a_hint(monkeypatch, tmp_p
     ):
         workflow.simulate_trial(settings)
     assert not out.exists()
+
+
+def test_foot_ground_reactions_sum_each_foot_and_weigh_its_centre_of_pressure():
+    from colloc.gait.strikes import foot_ground_reactions
+
+    # heel then toe of the right foot, then of the left: (Fx, Fy) pairs
+    forces = np.array([[1.0, 300.0, 2.0, 100.0, -1.0, 5.0, 0.5, 10.0]])
+    x = np.array([[0.1, 0.3, -0.2, 0.0]])
+    (out,) = foot_ground_reactions(forces, x)
+    assert out[:2].tolist() == [3.0, 400.0]
+    assert out[2] == pytest.approx((0.1 * 300 + 0.3 * 100) / 400)
+    assert out[3:5].tolist() == [-0.5, 15.0]
+    assert np.isnan(out[5])  # 15 N < 20 N: unloaded, no centre of pressure
+
+
+def test_ground_reactions_are_written_with_their_noise_and_read_back_with_gaps(tmp_path):
+    import dataclasses
+
+    record = make_record()
+    N = record.times.size
+    grf = np.column_stack([np.full(N, 10.0), np.full(N, 700.0), np.full(N, 0.4)] * 2)
+    grf[: N // 2, 5] = np.nan  # the left foot unloaded for the first half
+    grf[: N // 2, 4] = 0.0
+    with_grf = dataclasses.replace(record, ground_reactions=grf)
+    trial = record_to_trial(with_grf, seed=3, sample_rate=None)
+    assert set(GRF_COLUMNS) <= set(trial.signals.columns)
+    noise = trial.signals["right_grf_y"].to_numpy() - 700.0
+    assert np.std(noise) == pytest.approx(DEFAULT_NOISE_STD["ground_reaction_force"], rel=0.1)
+    cop = trial.signals["left_cop_x"].to_numpy()
+    assert np.isnan(cop[: N // 2]).all() and np.isfinite(cop[N // 2 :]).all()
+    # the older groups' noise is what it was without ground reactions (same seed)
+    plain = record_to_trial(record, seed=3, sample_rate=None)
+    np.testing.assert_array_equal(
+        plain.signals[list(TORQUE_COLUMNS)], trial.signals[list(TORQUE_COLUMNS)]
+    )
+    back = read_trial(trial.write(tmp_path / "trial"))
+    np.testing.assert_array_equal(back.signals["left_cop_x"], trial.signals["left_cop_x"])

@@ -12,6 +12,7 @@ import pandas as pd
 
 from colloc.data.columns import (
     COLUMN_UNITS,
+    COP_COLUMNS,
     JOINT_ANGLE_COLUMNS,
     OPTIONAL_GROUPS,
     REQUIRED_COLUMNS,
@@ -89,7 +90,8 @@ def nan_problems(time: np.ndarray, signals: pd.DataFrame) -> list[str]:
     Returns
     -------
     list of str
-        One problem per column that holds NaN or infinite values.
+        One problem per column that holds NaN or infinite values (NaN is allowed in the
+        centre-of-pressure columns, :data:`colloc.data.columns.COP_COLUMNS`).
     """
     problems = []
     bad_time = ~np.isfinite(time)
@@ -101,7 +103,8 @@ def nan_problems(time: np.ndarray, signals: pd.DataFrame) -> list[str]:
         )
     for name in signals.columns:
         values = pd.to_numeric(signals[name], errors="coerce").to_numpy(dtype=float)
-        bad = ~np.isfinite(values)
+        # a centre of pressure is undefined while its foot is unloaded: NaN there, never inf
+        bad = np.isinf(values) if name in COP_COLUMNS else ~np.isfinite(values)
         if bad.any():
             first = int(np.argmax(bad))
             at_time = f", time {time[first]:.6g} s" if np.isfinite(time[first]) else ""

@@ -21,6 +21,9 @@ column                        unit     meaning
 ``belt_speed``                m/s      treadmill belt speed
 ``belt_position``             m        treadmill belt position (integral of belt speed)
 ``<side>_<joint>_torque``     N·m      joint torque (optional; absent in most real data)
+``<side>_grf_x``, ``_grf_y``  N        ground reaction on the foot, forward and up
+``<side>_cop_x``              m        its centre of pressure (NaN while unloaded); the
+                                       three ground-reaction columns per side optional
 ============================  =======  ==============================================
 
 with ``<side>`` in ``right``, ``left`` and ``<joint>`` in ``hip``, ``knee``, ``ankle``.
@@ -62,6 +65,16 @@ TORQUE_COLUMNS: tuple[str, ...] = tuple(
 )
 """Joint torques [N·m], same order as :data:`JOINT_ANGLE_COLUMNS`; optional in a trial."""
 
+GRF_COLUMNS: tuple[str, ...] = tuple(
+    f"{side}_{name}" for side in SIDES for name in ("grf_x", "grf_y", "cop_x")
+)
+"""Ground reaction on each foot, as an instrumented treadmill's two plates give it: forward and
+upward force [N] and the centre of pressure's forward position [m] (same frame as
+``trunk_x``); optional in a trial. The centre of pressure is NaN while its foot is unloaded."""
+
+COP_COLUMNS: tuple[str, ...] = tuple(c for c in GRF_COLUMNS if c.endswith("cop_x"))
+"""The centre-of-pressure columns: the only ones that may hold NaN (an unloaded foot)."""
+
 REQUIRED_COLUMNS: tuple[str, ...] = (
     JOINT_ANGLE_COLUMNS + JOINT_RATE_COLUMNS + TRUNK_COLUMNS + BELT_COLUMNS
 )
@@ -70,10 +83,13 @@ REQUIRED_COLUMNS: tuple[str, ...] = (
 OPTIONAL_GROUPS: dict[str, tuple[str, ...]] = {
     "trunk rate": TRUNK_RATE_COLUMNS,
     "torque": TORQUE_COLUMNS,
+    "ground reaction": GRF_COLUMNS,
 }
 """Optional column groups: a trial has all columns of a group or none."""
 
-SIGNAL_COLUMNS: tuple[str, ...] = REQUIRED_COLUMNS + TRUNK_RATE_COLUMNS + TORQUE_COLUMNS
+SIGNAL_COLUMNS: tuple[str, ...] = (
+    REQUIRED_COLUMNS + TRUNK_RATE_COLUMNS + TORQUE_COLUMNS + GRF_COLUMNS
+)
 """All canonical signal columns, in the order a trial file is written."""
 
 
@@ -85,6 +101,7 @@ def _units() -> dict[str, str]:
     units.update({"trunk_x_rate": "m/s", "trunk_y_rate": "m/s", "trunk_angle_rate": "rad/s"})
     units.update({"belt_speed": "m/s", "belt_position": "m"})
     units.update(dict.fromkeys(TORQUE_COLUMNS, "N·m"))
+    units.update({c: "m" if c in COP_COLUMNS else "N" for c in GRF_COLUMNS})
     return units
 
 

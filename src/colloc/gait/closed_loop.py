@@ -42,6 +42,7 @@ from colloc.gait.orbit import NUM_STATES, NUM_TORQUES, GaitDynamics
 from colloc.gait.strikes import (
     HEEL_STRIKE_THRESHOLD,
     MIN_STRIDE_INTERVAL,
+    foot_ground_reactions,
     strike_phase,
     threshold_crossing,
     vertical_foot_forces,
@@ -71,6 +72,9 @@ class ClosedLoopRecord:
         Detected heel-strike times [s].
     phase : ndarray, shape (N,)
         The controller's unwrapped phase (strides since the start plus ``phi``).
+    ground_reactions : ndarray, shape (N, 6) or None
+        Each foot's forward and vertical force and centre of pressure
+        (:func:`colloc.gait.strikes.foot_ground_reactions`).
     fell : bool
         True if the hip height left ``hip_height_range`` or the integration failed.
     message : str
@@ -91,6 +95,7 @@ class ClosedLoopRecord:
     fell: bool
     message: str
     stats: dict[str, Any] = field(default_factory=dict)
+    ground_reactions: np.ndarray | None = None
 
     @property
     def vertical_grf(self) -> np.ndarray:
@@ -350,11 +355,14 @@ def simulate_walking(
             break
     wall = time.perf_counter() - start_wall
     last = i + 1
+    contact = np.asarray(dyn.contact_forces.map(last)(states[:last].T, v_all[:last])).T
+    contact_x = np.asarray(dyn.contact_positions.map(last)(states[:last].T)).T
     record = ClosedLoopRecord(
         times=times[:last],
         states=states[:last],
         torques=torques[:last],
-        contact_forces=np.asarray(dyn.contact_forces.map(last)(states[:last].T, v_all[:last])).T,
+        contact_forces=contact,
+        ground_reactions=foot_ground_reactions(contact, contact_x),
         belt_speed=v_all[:last],
         belt_position=belt_position(times[:last], v_all[:last]),
         right_heel_strikes=np.array(strikes["right"]),

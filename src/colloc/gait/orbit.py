@@ -61,6 +61,8 @@ class GaitDynamics:
         ``(x, T, v) -> x'``.
     contact_forces : casadi.Function
         ``(x, v) -> (8,)`` floor forces.
+    contact_positions : casadi.Function
+        ``x -> (4,)`` forward positions of the four contact points [m].
     residual_jacobians : casadi.Function
         ``(x', x, T, v) -> (F, dF/dx', dF/dx, dF/dT)`` of the implicit residual.
     """
@@ -76,6 +78,7 @@ class GaitDynamics:
     rhs: ca.Function
     contact_forces: ca.Function
     residual_jacobians: ca.Function
+    contact_positions: ca.Function
 
     @classmethod
     def build(
@@ -112,6 +115,8 @@ class GaitDynamics:
         xdot = ca.vertcat(x[n:], ca.solve(mass_sx, ca.vertcat(*forcing)))
         forces = [f for name in CONTACT_POINT_NAMES for f in gait.contact_forces[name]]
         contact = ca.vertcat(*sympy_to_casadi(forces, leaves))
+        points_x = [gait.contact_points[name][0] for name in CONTACT_POINT_NAMES]
+        positions = ca.vertcat(*sympy_to_casadi(points_x, leaves))
 
         F = residual_function(model)
         p = np.array([values[s] for s in model.parameters])
@@ -135,6 +140,7 @@ class GaitDynamics:
             rhs=ca.Function("gait_rhs", [x, torque, belt], [xdot]),
             contact_forces=ca.Function("gait_contact", [x, belt], [contact]),
             residual_jacobians=jacs,
+            contact_positions=ca.Function("gait_contact_x", [x], [positions]),
         )
 
     def linearize(

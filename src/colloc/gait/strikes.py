@@ -29,6 +29,45 @@ def vertical_foot_forces(contact_forces: np.ndarray) -> np.ndarray:
     return np.column_stack([fy[:, 0] + fy[:, 1], fy[:, 2] + fy[:, 3]])
 
 
+#: Vertical force [N] below which a foot counts as unloaded and its centre of pressure is
+#: undefined (NaN), as a force plate's software leaves it below a few tens of newtons.
+UNLOADED_FORCE = 20.0
+
+
+def foot_ground_reactions(
+    contact_forces: np.ndarray, contact_x: np.ndarray, unloaded: float = UNLOADED_FORCE
+) -> np.ndarray:
+    """Each foot's ground reaction as a force plate under it reports it.
+
+    Parameters
+    ----------
+    contact_forces : ndarray, shape (N, 8)
+        ``Fx, Fy`` on the right heel, right toe, left heel, left toe [N].
+    contact_x : ndarray, shape (N, 4)
+        Forward positions of the same four points [m].
+    unloaded : float
+        Vertical force [N] below which the centre of pressure is NaN.
+
+    Returns
+    -------
+    ndarray, shape (N, 6)
+        Right ``Fx, Fy, CoP x``, then left, in the order of
+        :data:`colloc.data.columns.GRF_COLUMNS`.
+    """
+    f = np.asarray(contact_forces, dtype=float)
+    x = np.asarray(contact_x, dtype=float)
+    out = []
+    for heel, toe in ((0, 1), (2, 3)):
+        fx = f[:, 2 * heel] + f[:, 2 * toe]
+        fy = f[:, 2 * heel + 1] + f[:, 2 * toe + 1]
+        moment = x[:, heel] * f[:, 2 * heel + 1] + x[:, toe] * f[:, 2 * toe + 1]
+        loaded = fy >= unloaded
+        cop = np.full(fy.shape, np.nan)
+        cop[loaded] = moment[loaded] / fy[loaded]
+        out += [fx, fy, cop]
+    return np.column_stack(out)
+
+
 #: A foot's vertical force [N] whose upward crossing is a heel strike. Well above the
 #: 20-50 N with which a swing foot of the collocation cycles grazes the belt, which a
 #: lower threshold took for a heel strike (resetting the phase mid-swing).

@@ -37,6 +37,8 @@ import pandas as pd
 
 from colloc.data.columns import (
     BELT_COLUMNS,
+    COP_COLUMNS,
+    GRF_COLUMNS,
     JOINT_ANGLE_COLUMNS,
     JOINT_RATE_COLUMNS,
     SIDES,
@@ -63,6 +65,10 @@ DEFAULT_NOISE_STD: dict[str, float] = {
     "belt_speed": 0.005,
     "belt_position": 0.001,
     "joint_torque": 1.0,
+    # an instrumented treadmill's plates: a few newtons of noise, millimetres of centre of
+    # pressure while the foot is loaded
+    "ground_reaction_force": 5.0,
+    "center_of_pressure": 0.005,
 }
 
 #: Columns in each noise group.
@@ -76,6 +82,9 @@ NOISE_GROUPS: dict[str, tuple[str, ...]] = {
     "belt_speed": BELT_COLUMNS[:1],
     "belt_position": BELT_COLUMNS[1:],
     "joint_torque": TORQUE_COLUMNS,
+    # after the older groups, so that their draws from the seed stay what they were
+    "ground_reaction_force": tuple(c for c in GRF_COLUMNS if c not in COP_COLUMNS),
+    "center_of_pressure": COP_COLUMNS,
 }
 
 #: Trial columns of gait2d's state ``x = [q, u]``, in state order (trunk x, y, angle, the six
@@ -174,13 +183,14 @@ def true_signals(record: WalkingRecord) -> tuple[np.ndarray, pd.DataFrame]:
     ----------
     record : WalkingRecord
         ``times (N,)``, ``states (N, 18)``, ``torques (N, 6)``, ``belt_speed (N,)``,
-        ``belt_position (N,)``.
+        ``belt_position (N,)``; and ``ground_reactions (N, 6)`` when it has them.
 
     Returns
     -------
     time : ndarray, shape (N,)
     signals : DataFrame
-        One column per name of :data:`colloc.data.columns.SIGNAL_COLUMNS`.
+        One column per name of :data:`colloc.data.columns.SIGNAL_COLUMNS`, the ground
+        reactions only when the record has them.
 
     Raises
     ------
@@ -213,7 +223,16 @@ def true_signals(record: WalkingRecord) -> tuple[np.ndarray, pd.DataFrame]:
     columns = np.column_stack([columns, belt["belt_position"], u[:, :3], torques])
     names = JOINT_ANGLE_COLUMNS + JOINT_RATE_COLUMNS + TRUNK_COLUMNS + BELT_COLUMNS
     frame = pd.DataFrame(columns, columns=list(names + TRUNK_RATE_COLUMNS + TORQUE_COLUMNS))
-    return time, frame[list(SIGNAL_COLUMNS)]
+    grf = getattr(record, "ground_reactions", None)
+    if grf is not None:
+        grf = np.asarray(grf, dtype=float)
+        if grf.shape != (n, len(GRF_COLUMNS)):
+            raise ValueError(
+                f"cannot convert the walking record: record.ground_reactions: expected shape "
+                f"{(n, len(GRF_COLUMNS))}, found {grf.shape}"
+            )
+        frame[list(GRF_COLUMNS)] = grf
+    return time, frame[[c for c in SIGNAL_COLUMNS if c in frame.columns]]
 
 
 def _uniform_grid(time: np.ndarray, sample_rate: float) -> np.ndarray:
@@ -292,7 +311,8 @@ def record_to_trial(
     for group, names in NOISE_GROUPS.items():
         # One draw per group, always, so a group's noise does not depend on other groups' levels.
         draw = rng.standard_normal((time.size, len(names)))
-        measured[list(names)] = truth[list(names)].to_numpy() + std[group] * draw
+        if all(name in truth.columns for name in names):
+            measured[list(names)] = truth[list(names)].to_numpy() + std[group] * draw
     strikes = {}
     for side in SIDES:
         values = np.asarray(getattr(record, f"{side}_heel_strikes"), dtype=float).ravel()
