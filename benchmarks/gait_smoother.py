@@ -5,7 +5,7 @@ and torques against the truth, with the direct least squares of the controller o
 smoothed signals (at the interval midpoints) against the raw data's and the exact states'.
 
     python benchmarks/gait_smoother.py --trial NOISY --truth CLEAN --start 10 --duration 20 \
-        [--repeat 3]
+        [--repeat 3] [--no-grf] [--scheme midpoint|trapezoidal]
 
 Each case runs in a fresh process (the peak RSS is its own) and appends one JSON record to
 ``benchmarks/results/gait_smoother.json``. Quote medians over ``--repeat``: the machine is
@@ -26,7 +26,14 @@ from results_file import append_record
 RESULTS = Path(__file__).parent / "results" / "gait_smoother.json"
 
 
-def one_case(trial_dir: Path, truth_dir: Path | None, start: float, duration: float) -> dict:
+def one_case(
+    trial_dir: Path,
+    truth_dir: Path | None,
+    start: float,
+    duration: float,
+    grf: bool = True,
+    scheme: str = "midpoint",
+) -> dict:
     import resource
 
     import numpy as np
@@ -48,12 +55,20 @@ def one_case(trial_dir: Path, truth_dir: Path | None, start: float, duration: fl
         load_parameters(float(meta.get("body_mass", 75.0)), float(meta.get("height", 1.8)))
     )
     setup = time.perf_counter() - clock
-    result = GaitSmoother.from_trial(dyn, trial, rows).run()
+    from colloc.identify.gait_smoother import SmootherSettings
+    from colloc.transcription import Midpoint, Trapezoidal
+
+    settings = SmootherSettings(scheme={"midpoint": Midpoint, "trapezoidal": Trapezoidal}[scheme]())
+    smoother = GaitSmoother.from_trial(dyn, trial, rows, settings, use_ground_reactions=grf)
+    # (--no-grf leaves them out; without it they are tracked whatever the scheme)
+    result = smoother.run()
     record: dict = {
         "trial": str(trial_dir),
         "start": start,
         "duration": duration,
         "nodes": int(rows.size),
+        "scheme": scheme,
+        "ground_reactions_tracked": any("grf" in str(y) for y in smoother.model.outputs),
         "setup_seconds": setup,
         "smoother_seconds": sum(s.seconds for s in result.stages),
         "iterations": sum(s.iterations for s in result.stages),
@@ -104,10 +119,10 @@ def one_case(trial_dir: Path, truth_dir: Path | None, start: float, duration: fl
                 "Tstar": float(np.linalg.norm(fit.Tstar - Tstar) / np.linalg.norm(Tstar)),
             }
 
-        _, mid_states, mid_torques = result.at_intervals()
+        at_t, at_states, at_torques = result.at_dynamics()
         record["controller_least_squares"] = {
             "raw": errors(phase, S, T),
-            "smoothed_midpoints": errors(mid(phase), mid_states, mid_torques),
+            "smoothed": errors(np.interp(at_t, result.times, phase), at_states, at_torques),
             "exact_states_measured_torques": errors(phase, S_true, T),
         }
     return record
@@ -120,10 +135,22 @@ def main() -> None:
     parser.add_argument("--start", type=float, default=10.0)
     parser.add_argument("--duration", type=float, nargs="+", default=[20.0])
     parser.add_argument("--repeat", type=int, default=1)
+    parser.add_argument(
+        "--scheme",
+        choices=("midpoint", "trapezoidal"),
+        default="midpoint",
+        help="the smoother's second-order scheme",
+    )
+    parser.add_argument(
+        "--no-grf", action="store_true", help="leave the trial's ground reactions out"
+    )
     parser.add_argument("--one", action="store_true", help=argparse.SUPPRESS)
     args = parser.parse_args()
     if args.one:
-        print(json.dumps(one_case(args.trial, args.truth, args.start, args.duration[0])))
+        record = one_case(
+            args.trial, args.truth, args.start, args.duration[0], not args.no_grf, args.scheme
+        )
+        print(json.dumps(record))
         return
     for duration in args.duration:
         for _ in range(args.repeat):
@@ -131,6 +158,9 @@ def main() -> None:
             command += ["--start", str(args.start), "--duration", str(duration)]
             if args.truth:
                 command += ["--truth", str(args.truth)]
+            if args.no_grf:
+                command.append("--no-grf")
+            command += ["--scheme", args.scheme]
             out = subprocess.run(command, capture_output=True, text=True, check=True)
             record = json.loads(out.stdout.strip().splitlines()[-1])
             append_record(RESULTS, record)

@@ -224,3 +224,48 @@ def test_lowpass_is_zero_lag_with_the_butterworth_gain_squared():
     np.testing.assert_allclose(out[middle, 1], gain[1] * fast[middle], atol=1e-6)
     with pytest.raises(ValueError, match="cutoff_hz: expected a value between 0 and the Nyquist"):
         lowpass(t, slow, 60.0)
+
+
+def test_ground_reactions_are_tracked_through_the_contact_model(window, dynamics):
+    """Each foot's measured force (heel plus toe of the contact model, computed here from the
+    fixture's exact states, plus 5 N of noise) is an output of the smoother's model; with the
+    trapezoidal rule (dynamics at the nodes, where the forces are tracked) the smoothed
+    motion's vertical forces come out within that noise of the truth, and the horizontal
+    ones (a friction law that turns a millimetre per second of slip into tens of newtons)
+    less than half as far from it as without them."""
+    from colloc.transcription import Trapezoidal
+
+    t, q_true, v, T_true = window
+    states_true = read_trial(FIXTURE).signals
+    rows = np.flatnonzero(
+        (read_trial(FIXTURE).time >= 2.0 - 1e-9) & (read_trial(FIXTURE).time <= 4.0 + 1e-9)
+    )
+    from colloc.gait.metadata import STATE_SIGNAL_NAMES
+
+    X = states_true.iloc[rows][list(STATE_SIGNAL_NAMES)].to_numpy(dtype=float)
+
+    def feet(states):
+        f = np.asarray(dynamics.contact_forces.map(len(t))(states.T, v)).T
+        return np.column_stack(
+            [f[:, 0] + f[:, 2], f[:, 1] + f[:, 3], f[:, 4] + f[:, 6], f[:, 5] + f[:, 7]]
+        )
+
+    truth = feet(X)
+    rng = np.random.default_rng(4)
+    q, T = noisy(window, 4)
+    measured = truth + 5.0 * rng.standard_normal(truth.shape)
+    settings = SmootherSettings(scheme=Trapezoidal())
+    smoother = GaitSmoother(dynamics, t, q, v, STD, T, settings=settings, ground_reactions=measured)
+    assert {"right_grf_x", "right_grf_y", "left_grf_x", "left_grf_y"} <= {
+        str(y.func) for y in smoother.model.outputs
+    }
+    result = smoother.run()
+    assert [s.name for s in result.stages][:3] == ["start", "backward-euler", "trapezoidal"]
+    without = GaitSmoother(dynamics, t, q, v, STD, T, settings=settings).run()
+
+    def rms(states):
+        return np.sqrt(np.mean((feet(states) - truth) ** 2, axis=0))
+
+    tracked, untracked = rms(result.states), rms(without.states)
+    assert np.all(tracked[[1, 3]] < 5.0), tracked  # vertical: within the plates' noise
+    assert np.all(tracked[[0, 2]] < 0.5 * untracked[[0, 2]]), (tracked, untracked)

@@ -370,9 +370,9 @@ def _smoother_fit(c: _FitContext) -> _Fit:
     result = smoother.run(progress=lambda stage, detail: c.say("smooth", f"{stage}: {detail}"))
     c.lap("smooth")
 
-    mid_t, mid_states, mid_torques = result.at_intervals()
+    mid_t, mid_states, mid_torques = result.at_dynamics()
     if settings.phase == "controller":
-        mid_phase = 0.5 * (c.phase[1:] + c.phase[:-1])
+        mid_phase = np.interp(mid_t, c.t, c.phase)
     else:
         mid_phase = unwrapped_gait_phase(mid_t, data.trial.right_heel_strikes)
     ok = np.isfinite(mid_phase)
@@ -385,7 +385,7 @@ def _smoother_fit(c: _FitContext) -> _Fit:
     noise = None if motor_std is None else np.full(6, np.hypot(torque_std, motor_std))
     c.say(
         "controller",
-        f"least squares at {int(ok.sum())} interval midpoints, sandwich over strides",
+        f"least squares at {int(ok.sum())} points where the dynamics hold, sandwich over strides",
     )
     est = fit_schedule_with_errors(
         gs, mid_phase[ok], feedback[ok], mid_torques[ok], strides[ok], noise
@@ -788,15 +788,42 @@ def _validate(
         rows = np.arange(t.size)
     states = _measured_states(t, signals, settings.smoothing_window)
     index = {n: i for i, n in enumerate(_state_names())}
-    s = states[rows][:, [index[n] for n in data.feedback]]
-    measured = signals[list(TORQUE_COLUMNS)].to_numpy(dtype=float)[rows]
-    out: dict[str, Any] = {"torque_vaf": {}}
-    for name, est in controllers.items():
-        predicted = gs.torque(phase_all[rows], s, est.Tstar, est.K)
-        vaf = variance_accounted_for(measured, predicted)
-        out["torque_vaf"][name] = dict(zip(JOINT_NAMES, map(float, vaf), strict=True))
+    feedback = [index[n] for n in data.feedback]
+    measured = signals[list(TORQUE_COLUMNS)].to_numpy(dtype=float)
+    out: dict[str, Any] = {"torque_vaf": {}, "torque_vaf_measured_states": {}}
+    bases = {"torque_vaf_measured_states": (phase_all[rows], states[rows], measured[rows])}
+    if settings.method == "smoother":
+        # the held-out states as the fit saw its own: the smoother's (the controller's
+        # prediction from noisy measured states carries K times their noise, which favours
+        # the attenuated gains of a least squares on noisy data)
+        bases["torque_vaf"] = _smoothed_held_out(settings, data, dyn, phase_all)
+    else:
+        bases["torque_vaf"] = bases["torque_vaf_measured_states"]
+    for key, (phase, x, torque) in bases.items():
+        for name, est in controllers.items():
+            predicted = gs.torque(phase, x[:, feedback], est.Tstar, est.K)
+            vaf = variance_accounted_for(torque, predicted)
+            out[key][name] = dict(zip(JOINT_NAMES, map(float, vaf), strict=True))
     out.update(_walk(settings, data, dyn, controllers["collocation"], states, phase_all))
     return out
+
+
+def _smoothed_held_out(
+    settings: GaitIdentifySettings, data: _Data, dyn: Any, phase: np.ndarray
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Phase, smoothed states and measured torques of the held-out part where the smoother's
+    scheme holds the dynamics (the held-out part smoothed like the fit window)."""
+    from colloc.identify.gait_smoother import GaitSmoother, SmootherSettings
+
+    part = data.held_out
+    rows = np.arange(part.time.size)
+    result = GaitSmoother.from_trial(dyn, part, rows, SmootherSettings()).run()
+    at_t, at_states, _ = result.at_dynamics()
+    at_phase = np.interp(at_t, part.time, phase, left=np.nan, right=np.nan)
+    measured = part.signals[list(TORQUE_COLUMNS)].to_numpy(dtype=float)
+    at_torques = np.column_stack([np.interp(at_t, part.time, m) for m in measured.T])
+    ok = np.isfinite(at_phase)
+    return at_phase[ok], at_states[ok], at_torques[ok]
 
 
 def _walk(

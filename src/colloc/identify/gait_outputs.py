@@ -39,6 +39,7 @@ def gait_summary(run: GaitIdentification, run_id: str) -> dict[str, Any]:
             **run.metrics,
             "validation": {
                 "torque_vaf": v["torque_vaf"],
+                "torque_vaf_measured_states": v.get("torque_vaf_measured_states"),
                 "walks": v.get("walks"),
                 "simulation": v.get("message"),
                 "simulated_seconds": v.get("simulated_seconds"),

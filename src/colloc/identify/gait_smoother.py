@@ -27,6 +27,7 @@ Each stage reports what it did (:class:`SmootherStage`); a stage that fails rais
 from __future__ import annotations
 
 import copy
+import re
 import time
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
@@ -36,6 +37,9 @@ import numpy as np
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 import sympy as sm
+
+from colloc.transcription.base import Scheme
+from colloc.transcription.midpoint import Midpoint
 
 Progress = Callable[[str, str], None]
 
@@ -76,6 +80,9 @@ class SmootherSettings:
         How often a failed continuation step is halved before the smoother gives up.
     max_iter : int
         IPOPT iterations per stage.
+    scheme : Scheme
+        The second-order scheme of the stages after backward Euler (default
+        :class:`~colloc.transcription.Midpoint`).
     window_seconds, overlap_seconds : float
         The backward-Euler stage runs on windows of this length overlapping by this much
         (bounded work per solve, and no solve longer than the one measured to converge),
@@ -91,6 +98,7 @@ class SmootherSettings:
     residual_std: tuple[float, float, float] = RESIDUAL_STD
     max_halvings: int = 3
     max_iter: int = 300
+    scheme: Scheme = field(default_factory=Midpoint)
     window_seconds: float = 10.0
     overlap_seconds: float = 1.0
     ipopt_options: Mapping[str, Any] = field(default_factory=lambda: dict(IPOPT_OPTIONS))
@@ -144,7 +152,8 @@ class SmootherStage:
     Attributes
     ----------
     name : str
-        ``start``, ``backward-euler``, ``midpoint`` or ``continuation``.
+        ``start``, ``backward-euler``, the second-order scheme's name (``midpoint``,
+        ``trapezoidal``) or ``continuation``.
     scheme : str
         The collocation scheme's class name.
     friction_velocity : float
@@ -217,15 +226,22 @@ class SmoothedGait:
     notes: list[str] = field(default_factory=list)
 
     def at_intervals(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """Times, states and torques at the interval midpoints, where the midpoint rule
-        evaluates the dynamics: averages of neighbouring nodes, which cancel the rule's
-        odd-even mode in the node rates."""
+        """Times, states and torques at the interval midpoints (averages of neighbouring
+        nodes, which cancel the midpoint rule's odd-even mode in the node rates)."""
         mid = 0.5 * (self.times[1:] + self.times[:-1])
         return (
             mid,
             0.5 * (self.states[1:] + self.states[:-1]),
             0.5 * (self.torques[1:] + self.torques[:-1]),
         )
+
+    def at_dynamics(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Times, states and torques where the last stage's scheme holds the dynamics: the
+        nodes for a scheme with node equations (trapezoidal, Hermite-Simpson), else the
+        interval midpoints (:meth:`at_intervals`; the midpoint rule)."""
+        if self.problem.scheme.node_derivatives:
+            return self.times, self.states, self.torques
+        return self.at_intervals()
 
 
 def lowpass(times: np.ndarray, values: np.ndarray, cutoff_hz: float, order: int = 2) -> np.ndarray:
@@ -375,6 +391,11 @@ class GaitSmoother:
     torque_std : float
         Their noise's standard deviation.
     settings : SmootherSettings, optional
+    ground_reactions : ndarray, shape (N, 4), optional
+        Measured forward and vertical force on the right foot, then the left (NaN where
+        missing), tracked against the contact model's when given.
+    grf_std : float
+        Their noise's standard deviation [N].
     """
 
     def __init__(
@@ -387,6 +408,8 @@ class GaitSmoother:
         torques: np.ndarray | None = None,
         torque_std: float = 1.0,
         settings: SmootherSettings | None = None,
+        ground_reactions: np.ndarray | None = None,
+        grf_std: float = 5.0,
     ) -> None:
         from sympy.physics.mechanics import dynamicsymbols
 
@@ -401,15 +424,18 @@ class GaitSmoother:
         }
         if torques is not None:
             arrays["torques"] = (np.asarray(torques, dtype=float), (N, 6))
+        if ground_reactions is not None:
+            arrays["ground_reactions"] = (np.asarray(ground_reactions, dtype=float), (N, 4))
         for name, (value, shape) in arrays.items():
             if value.shape != shape:
                 problems.append(f"{name}: expected shape {shape}, found {value.shape}")
-            elif name != "torques" and not np.all(np.isfinite(value)):
+            elif name not in ("torques", "ground_reactions") and not np.all(np.isfinite(value)):
                 problems.append(f"{name}: expected finite values, found NaN or inf")
         if not problems and np.any(arrays["noise_std"][0] <= 0):
             problems.append("noise_std: expected positive standard deviations")
-        if not (np.isfinite(torque_std) and torque_std > 0):
-            problems.append(f"torque_std: expected a positive number, found {torque_std!r}")
+        for label, std in (("torque_std", torque_std), ("grf_std", grf_std)):
+            if not (np.isfinite(std) and std > 0):
+                problems.append(f"{label}: expected a positive number, found {std!r}")
         if problems:
             raise ValueError("smoother: " + "; ".join(problems))
         self.dynamics = dynamics
@@ -426,10 +452,27 @@ class GaitSmoother:
         weights: dict[sm.Basic, float] = {
             q: 1.0 / s**2 for q, s in zip(coordinates, arrays["noise_std"][0], strict=True)
         }
+        outputs: dict[sm.Basic, sm.Expr] = {y: y for y in measured}
         if torques is not None:
             measured.update(zip(gait.torques, arrays["torques"][0].T, strict=True))
             weights.update({T: 1.0 / torque_std**2 for T in gait.torques})
-        self.model = actuated.with_outputs(list(measured))
+            outputs.update({T: T for T in gait.torques})
+        if ground_reactions is not None:
+            # each foot's force: heel plus toe of the contact model
+            for j, (side, axis) in enumerate(
+                (side, axis) for side in ("right", "left") for axis in (0, 1)
+            ):
+                values = arrays["ground_reactions"][0][:, j]
+                if not np.isfinite(values).any():
+                    continue  # a force not measured at all (all NaN) is not tracked
+                y = dynamicsymbols(f"{side}_grf_{'xy'[axis]}")
+                outputs[y] = sum(
+                    (gait.contact_forces[f"{side}_{p}"][axis] for p in ("heel", "toe")),
+                    sm.Integer(0),
+                )
+                measured[y] = values
+                weights[y] = 1.0 / grf_std**2
+        self.model = actuated.with_outputs(outputs)
         self._measured, self._weights = measured, weights
         self._friction = gait.contact_symbols.friction_velocity
         self.model_friction_velocity = float(dynamics.constants[self._friction])
@@ -441,10 +484,12 @@ class GaitSmoother:
         trial: Any,
         rows: np.ndarray,
         settings: SmootherSettings | None = None,
+        use_ground_reactions: bool | None = None,
     ) -> GaitSmoother:
         """The smoother of the samples ``rows`` of a trial (:func:`colloc.data.read_trial`):
-        its trunk pose and joint angles, belt speed and, when it has them, joint torques,
-        each weighted by its noise level (:func:`trial_noise_std`).
+        its trunk pose and joint angles, belt speed and, when it has them, joint torques and
+        each foot's ground reaction force, each weighted by its noise level
+        (:func:`trial_noise_std`).
 
         Parameters
         ----------
@@ -453,6 +498,13 @@ class GaitSmoother:
         rows : ndarray of int
             Consecutive sample indices.
         settings : SmootherSettings, optional
+        use_ground_reactions : bool, optional
+            Track the trial's ground reaction forces. Default: when the scheme holds the
+            dynamics at the nodes (trapezoidal), where the tracked forces are the ones the
+            dynamics feel; with the midpoint rule, forces tracked at the nodes move the node
+            states along the rule's odd-even mode, which the dynamics do not see (measured on
+            20 s of a noisy trial: the controller's least squares went from 59 % to 83 % error
+            in K with them, and from 55 % to 52 % with the trapezoidal rule).
 
         Returns
         -------
@@ -463,6 +515,12 @@ class GaitSmoother:
         signals = trial.signals.iloc[np.asarray(rows)]
         positions = list(TRUNK_COLUMNS + JOINT_ANGLE_COLUMNS)
         has_torques = all(c in signals.columns for c in TORQUE_COLUMNS)
+        forces = [f"{side}_grf_{axis}" for side in ("right", "left") for axis in "xy"]
+        chosen = settings or SmootherSettings()
+        wanted = (
+            chosen.scheme.node_derivatives if use_ground_reactions is None else use_ground_reactions
+        )
+        has_forces = wanted and all(c in signals.columns for c in forces)
         return cls(
             dynamics,
             trial.time[np.asarray(rows)],
@@ -471,7 +529,9 @@ class GaitSmoother:
             np.array([trial_noise_std(trial.metadata, c) for c in positions]),
             signals[list(TORQUE_COLUMNS)].to_numpy(dtype=float) if has_torques else None,
             trial_noise_std(trial.metadata, TORQUE_COLUMNS[0]),
-            settings,
+            chosen,
+            signals[forces].to_numpy(dtype=float) if has_forces else None,
+            trial_noise_std(trial.metadata, forces[0]) if has_forces else 5.0,
         )
 
     def problem(self, scheme: Any, friction_velocity: float) -> Any:
@@ -536,18 +596,17 @@ class GaitSmoother:
         SmootherError
             When a stage does not converge (a continuation step after its halvings).
         """
-        from colloc.transcription import Midpoint
-
         say = progress or (lambda stage, detail: None)
         s = self.settings
         stages: list[SmootherStage] = []
         v0 = s.start_friction_velocity
         nodes = self._backward_euler(say, stages)
 
-        midpoint = self.problem(Midpoint(), v0)
-        say("midpoint", "warm-started from backward Euler")
-        z = self._solve(midpoint, midpoint.initial_guess(nodes), "midpoint", v0, stages)
-        say("midpoint", stages[-1].describe())
+        midpoint = self.problem(s.scheme, v0)
+        name = re.sub(r"(?<!^)(?=[A-Z])", "-", s.scheme.name).lower()  # HermiteSimpson -> ...
+        say(name, "warm-started from backward Euler")
+        z = self._solve(midpoint, midpoint.initial_guess(nodes), name, v0, stages)
+        say(name, stages[-1].describe())
 
         target = self.model_friction_velocity
         scheduled = [v for v in s.continuation if target < v < v0] + (
