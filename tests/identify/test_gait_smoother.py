@@ -109,6 +109,8 @@ def test_the_smoothed_motion_is_closer_to_the_truth_than_the_measurements(window
     assert np.all(rms(result.torques, T_true) < 1.3)
     assert np.all(np.sqrt(np.mean(result.residuals**2, axis=0)) < 10.0)
     mid_t, mid_x, mid_T = result.at_intervals()
+    for a, b in zip(result.at_dynamics(), (mid_t, mid_x, mid_T), strict=True):
+        np.testing.assert_array_equal(a, b)  # the midpoint rule holds them at the midpoints
     np.testing.assert_allclose(mid_t, 0.5 * (result.times[1:] + result.times[:-1]))
     np.testing.assert_allclose(mid_x[3], 0.5 * (result.states[3] + result.states[4]))
     assert mid_T.shape == (result.times.size - 1, 6)
@@ -261,6 +263,7 @@ def test_ground_reactions_are_tracked_through_the_contact_model(window, dynamics
     }
     result = smoother.run()
     assert [s.name for s in result.stages][:3] == ["start", "backward-euler", "trapezoidal"]
+    np.testing.assert_array_equal(result.at_dynamics()[1], result.states)  # at the nodes
     without = GaitSmoother(dynamics, t, q, v, STD, T, settings=settings).run()
 
     def rms(states):
