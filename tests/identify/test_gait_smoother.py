@@ -272,3 +272,17 @@ def test_ground_reactions_are_tracked_through_the_contact_model(window, dynamics
     tracked, untracked = rms(result.states), rms(without.states)
     assert np.all(tracked[[1, 3]] < 5.0), tracked  # vertical: within the plates' noise
     assert np.all(tracked[[0, 2]] < 0.5 * untracked[[0, 2]]), (tracked, untracked)
+
+
+def test_measured_rates_are_tracked_with_their_own_noise_levels(window, dynamics):
+    t, q, v, T = window
+    rates = np.zeros((t.size, 9))
+    std = np.full(9, 0.2)
+    smoother = GaitSmoother(dynamics, t, q, v, STD, T, rates=rates, rate_std=std)
+    speeds = dynamics.model.states[9:]
+    assert set(speeds) <= set(smoother.model.outputs)
+    assert all(smoother._weights[u] == pytest.approx(25.0) for u in speeds)
+    with pytest.raises(ValueError, match=r"rate_std: expected shape \(9,\), found \(\)"):
+        GaitSmoother(dynamics, t, q, v, STD, T, rates=rates)
+    with pytest.raises(ValueError, match="rate_std: expected positive standard deviations"):
+        GaitSmoother(dynamics, t, q, v, STD, T, rates=rates, rate_std=np.zeros(9))

@@ -396,6 +396,11 @@ class GaitSmoother:
         missing), tracked against the contact model's when given.
     grf_std : float
         Their noise's standard deviation [N].
+    rates : ndarray, shape (N, 9), optional
+        Measured rates of the coordinates (a lab's differentiated markers), tracked when
+        given; NaN where missing.
+    rate_std : ndarray, shape (9,), optional
+        Their noise's standard deviations (required with ``rates``).
     """
 
     def __init__(
@@ -410,6 +415,8 @@ class GaitSmoother:
         settings: SmootherSettings | None = None,
         ground_reactions: np.ndarray | None = None,
         grf_std: float = 5.0,
+        rates: np.ndarray | None = None,
+        rate_std: np.ndarray | None = None,
     ) -> None:
         from sympy.physics.mechanics import dynamicsymbols
 
@@ -426,13 +433,19 @@ class GaitSmoother:
             arrays["torques"] = (np.asarray(torques, dtype=float), (N, 6))
         if ground_reactions is not None:
             arrays["ground_reactions"] = (np.asarray(ground_reactions, dtype=float), (N, 4))
+        if rates is not None:
+            arrays["rates"] = (np.asarray(rates, dtype=float), (N, 9))
+            arrays["rate_std"] = (np.asarray(rate_std, dtype=float), (9,))
         for name, (value, shape) in arrays.items():
             if value.shape != shape:
                 problems.append(f"{name}: expected shape {shape}, found {value.shape}")
-            elif name not in ("torques", "ground_reactions") and not np.all(np.isfinite(value)):
+            elif name not in ("torques", "ground_reactions", "rates") and not np.all(
+                np.isfinite(value)
+            ):
                 problems.append(f"{name}: expected finite values, found NaN or inf")
-        if not problems and np.any(arrays["noise_std"][0] <= 0):
-            problems.append("noise_std: expected positive standard deviations")
+        for label in ("noise_std", "rate_std"):
+            if label in arrays and not problems and not np.all(arrays[label][0] > 0):
+                problems.append(f"{label}: expected positive standard deviations")
         for label, std in (("torque_std", torque_std), ("grf_std", grf_std)):
             if not (np.isfinite(std) and std > 0):
                 problems.append(f"{label}: expected a positive number, found {std!r}")
@@ -452,6 +465,12 @@ class GaitSmoother:
         weights: dict[sm.Basic, float] = {
             q: 1.0 / s**2 for q, s in zip(coordinates, arrays["noise_std"][0], strict=True)
         }
+        if rates is not None and not problems:
+            speeds = list(model.states[half:])
+            measured.update(zip(speeds, arrays["rates"][0].T, strict=True))
+            weights.update(
+                {u: 1.0 / s**2 for u, s in zip(speeds, arrays["rate_std"][0], strict=True)}
+            )
         outputs: dict[sm.Basic, sm.Expr] = {y: y for y in measured}
         if torques is not None:
             measured.update(zip(gait.torques, arrays["torques"][0].T, strict=True))
@@ -485,10 +504,11 @@ class GaitSmoother:
         rows: np.ndarray,
         settings: SmootherSettings | None = None,
         use_ground_reactions: bool | None = None,
+        use_rates: bool = False,
     ) -> GaitSmoother:
         """The smoother of the samples ``rows`` of a trial (:func:`colloc.data.read_trial`):
-        its trunk pose and joint angles, belt speed and, when it has them, joint torques and
-        each foot's ground reaction force, each weighted by its noise level
+        its trunk pose and joint angles, belt speed and, when it has them, the rates, joint
+        torques and each foot's ground reaction force, each weighted by its noise level
         (:func:`trial_noise_std`).
 
         Parameters
@@ -505,6 +525,13 @@ class GaitSmoother:
             states along the rule's odd-even mode, which the dynamics do not see (measured on
             20 s of a noisy trial: the controller's least squares went from 59 % to 83 % error
             in K with them, and from 55 % to 52 % with the trapezoidal rule).
+        use_rates : bool
+            Track the trial's rate columns (trunk and joint rates, as a lab differentiates its
+            markers) when it has them. They pin the node rates, which the midpoint rule's
+            odd-even mode otherwise leaves 3-22 deg/s from the truth (with them 2-7 deg/s),
+            but the controller's least squares at the interval midpoints did not gain
+            (40 s of a noisy trial: K error 53 % without, 55 % with; at the nodes 47 %), so
+            they are left out by default.
 
         Returns
         -------
@@ -516,6 +543,10 @@ class GaitSmoother:
         positions = list(TRUNK_COLUMNS + JOINT_ANGLE_COLUMNS)
         has_torques = all(c in signals.columns for c in TORQUE_COLUMNS)
         forces = [f"{side}_grf_{axis}" for side in ("right", "left") for axis in "xy"]
+        from colloc.data.columns import JOINT_RATE_COLUMNS, TRUNK_RATE_COLUMNS
+
+        rate_columns = list(TRUNK_RATE_COLUMNS + JOINT_RATE_COLUMNS)
+        has_rates = use_rates and all(c in signals.columns for c in rate_columns)
         chosen = settings or SmootherSettings()
         wanted = (
             chosen.scheme.node_derivatives if use_ground_reactions is None else use_ground_reactions
@@ -532,6 +563,10 @@ class GaitSmoother:
             chosen,
             signals[forces].to_numpy(dtype=float) if has_forces else None,
             trial_noise_std(trial.metadata, forces[0]) if has_forces else 5.0,
+            signals[rate_columns].to_numpy(dtype=float) if has_rates else None,
+            np.array([trial_noise_std(trial.metadata, c) for c in rate_columns])
+            if has_rates
+            else None,
         )
 
     def problem(self, scheme: Any, friction_velocity: float) -> Any:
