@@ -11,16 +11,21 @@ each timed and reported through ``progress``:
 2. ``direct``: direct identification, one least squares of the measured torques on the
    measured feedback per torque (:func:`colloc.identify.direct.fit_gain_schedule`), rates by
    Savitzky-Golay differentiation of the positions: the solver's start and the baseline;
-3. ``build`` and ``solve``: the collocation problem, solved by constrained Gauss-Newton with
-   condensing (:meth:`colloc.Problem.solve_gauss_newton`); with ``process_noise``, motor
-   noise on each joint torque and residual forces on the trunk are disturbance trajectories
-   penalised by their variance (the maximum a posteriori fit, ``docs/process-noise.md``);
-4. ``uncertainty``: standard errors of every ``T*`` and ``K`` entry from the Fisher
-   information at the estimate with the known noise levels (:func:`colloc.cramer_rao_bound`
-   evaluated at the solution), or with ``process_noise`` the sandwich over strides
-   (:func:`colloc.parameter_uncertainty`);
-5. ``validate``: on the held-out part, each controller's torques on the measured feedback
-   against the measured torques (VAF per joint), and a forward simulation of gait2d under
+3. the fit, by ``settings.method``: ``smooth`` and ``controller`` — the dynamically
+   consistent smoother (:mod:`colloc.identify.gait_smoother`) and the schedule's least
+   squares on its signals where the scheme holds the dynamics, with stride-sandwich errors
+   and the bound of the design (:mod:`colloc.identify.gait_controller_fit`); or ``build``
+   and ``solve`` — the closed-loop collocation problem, solved by constrained Gauss-Newton
+   with condensing (:meth:`colloc.Problem.solve_gauss_newton`); with ``process_noise``,
+   motor noise on each joint torque and residual forces on the trunk are disturbance
+   trajectories penalised by their variance (``docs/process-noise.md``);
+4. ``uncertainty`` (closed loop): standard errors of every ``T*`` and ``K`` entry from the
+   Fisher information at the estimate with the known noise levels
+   (:func:`colloc.cramer_rao_bound` evaluated at the solution), or with ``process_noise`` the
+   sandwich over strides (:func:`colloc.parameter_uncertainty`);
+5. ``validate``: on the held-out part, each controller's torques on the feedback (smoothed
+   like the fit window for the smoother fit; measured beside it) against the measured torques
+   (VAF per joint), and a forward simulation of gait2d under
    the identified controller from the measured state at the part's start, on its belt record
    (:func:`colloc.gait.closed_loop.simulate_walking`): does it walk to the end, and how far
    are its joint angles from the measured ones.
@@ -285,27 +290,16 @@ class _Fit:
 def _closed_loop_fit(c: _FitContext) -> _Fit:
     """The closed-loop collocation problem (all states free, the schedule's parameters in the
     dynamics) solved by constrained Gauss-Newton from the direct start."""
-    settings, data, dyn, gs, t, signals, phase, states, direct = (
-        c.settings,
-        c.data,
-        c.dyn,
-        c.gs,
-        c.t,
-        c.signals,
-        c.phase,
-        c.states,
-        c.direct,
-    )
-    say, iterations, notes, lap, meta = c.say, c.iterations, c.notes, c.lap, data.trial.metadata
-    model = dyn.model
+    settings, data, gs, t, say, lap = c.settings, c.data, c.gs, c.t, c.say, c.lap
+    model = c.dyn.model
     say("build", f"{t.size} nodes, {len(gs.parameters)} controller parameters")
-    problem, weights_n = _problem(settings, dyn, gs, t, signals, phase, meta)
+    problem, weights_n = _problem(settings, c.dyn, gs, t, c.signals, c.phase, data.trial.metadata)
     guess = (
-        gs.parameter_values(direct.Tstar, direct.K)
+        gs.parameter_values(c.direct.Tstar, c.direct.K)
         if settings.guess == "direct"
         else {p: 0.0 for p in gs.parameters}
     )
-    z0 = problem.initial_guess(dict(zip(model.states, states.T, strict=True)), guess)
+    z0 = problem.initial_guess(dict(zip(model.states, c.states.T, strict=True)), guess)
     lap("build")
 
     from colloc.solve.gauss_newton import GaussNewtonOptions
@@ -314,7 +308,7 @@ def _closed_loop_fit(c: _FitContext) -> _Fit:
     solution = problem.solve_gauss_newton(
         z0,
         GaussNewtonOptions(segment_nodes=settings.segment_nodes, max_iter=settings.max_iter),
-        progress=iterations,
+        progress=c.iterations,
     )
     stats = solution.stats
     Tstar, K = gs.arrays({p: solution.parameters[p] for p in gs.parameters})
@@ -329,10 +323,9 @@ def _closed_loop_fit(c: _FitContext) -> _Fit:
         inside = np.searchsorted(t, strikes[(strikes > t[0]) & (strikes < t[-1])])
         strides = np.r_[0, inside[inside > 0]]
         say("uncertainty", f"sandwich over {strides.size} strides")
-    Tstar_se, K_se = _standard_errors(problem, solution, gs, weights_n, notes, strides)
+    Tstar_se, K_se = _standard_errors(problem, solution, gs, weights_n, c.notes, strides)
     lap("uncertainty")
 
-    stats = solution.stats
     return _Fit(
         ControllerEstimate(Tstar, K, Tstar_se, K_se),
         {
@@ -344,14 +337,7 @@ def _closed_loop_fit(c: _FitContext) -> _Fit:
             "message": stats.get("message", ""),
             "log": stats.get("ipopt_log", ""),
         },
-        {
-            "nodes": int(t.size),
-            "variables": int(problem.layout.num_variables),
-            "constraints": int(problem.layout.num_constraints),
-            "parameters": len(gs.parameters),
-            "nnz_jacobian": int(problem.nlp.nnz_jacobian),
-            "nnz_hessian": int(problem.nlp.nnz_hessian),
-        },
+        _problem_size(problem, gs),
         np.column_stack([solution.trajectories[x] for x in model.states[3:9]]),
     )
 
@@ -413,16 +399,21 @@ def _smoother_fit(c: _FitContext) -> _Fit:
             "message": "; ".join(s.describe() for s in result.stages),
             "log": "",
         },
-        {
-            "nodes": int(c.t.size),
-            "variables": int(problem.layout.num_variables),
-            "constraints": int(problem.layout.num_constraints),
-            "parameters": len(gs.parameters),
-            "nnz_jacobian": int(problem.nlp.nnz_jacobian),
-            "nnz_hessian": int(problem.nlp.nnz_hessian),
-        },
+        _problem_size(problem, gs),
         result.states[:, 3:9].copy(),
     )
+
+
+def _problem_size(problem: Any, gs: GainScheduled) -> dict[str, int]:
+    """Nodes, variables, constraints, controller parameters and nonzeros of a solved problem."""
+    return {
+        "nodes": int(problem.layout.num_nodes),
+        "variables": int(problem.layout.num_variables),
+        "constraints": int(problem.layout.num_constraints),
+        "parameters": len(gs.parameters),
+        "nnz_jacobian": int(problem.nlp.nnz_jacobian),
+        "nnz_hessian": int(problem.nlp.nnz_hessian),
+    }
 
 
 #: ``GaitIdentifySettings.method`` -> the fit.
