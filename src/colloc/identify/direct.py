@@ -214,20 +214,7 @@ def fit_gain_schedule(
         the point has parameters): the message names the points and what they lack.
     """
     P, m, ns = controller.num_points, len(controller.inputs), len(controller.feedback)
-    phase = np.asarray(phase, dtype=float)
-    feedback = np.asarray(feedback, dtype=float)
-    inputs = np.asarray(inputs, dtype=float)
-    N = phase.shape[0] if phase.ndim == 1 else -1
-    problems = []
-    for label, arr, shape in (
-        ("phase", phase, (N,)),
-        ("feedback", feedback, (N, ns)),
-        ("inputs", inputs, (N, m)),
-    ):
-        if arr.shape != shape:
-            problems.append(f"{label}: expected shape {shape}, found {arr.shape}")
-        elif not np.all(np.isfinite(arr)):
-            problems.append(f"{label}: expected finite values, found NaN or inf")
+    phase, feedback, inputs, problems = schedule_data(controller, phase, feedback, inputs)
     if problems:
         raise ValueError("fit_gain_schedule: " + "; ".join(problems))
     Tstar, K = np.zeros((P, m)), np.zeros((P, m, ns))
@@ -244,12 +231,33 @@ def fit_gain_schedule(
     return ScheduleFit(Tstar, K, residual)
 
 
+def schedule_data(
+    controller: GainScheduled, phase: Any, feedback: Any, inputs: Any
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, list[str]]:
+    """The phase, feedback and inputs of a schedule's least squares as float arrays, with every
+    problem of their shapes and values (``phase (N,)``, ``feedback (N, n_s)``, ``inputs (N, m)``,
+    finite)."""
+    m, ns = len(controller.inputs), len(controller.feedback)
+    phase, feedback, inputs = (np.asarray(a, dtype=float) for a in (phase, feedback, inputs))
+    N = phase.shape[0] if phase.ndim == 1 else -1
+    problems = []
+    for label, arr, shape in (
+        ("phase", phase, (N,)),
+        ("feedback", feedback, (N, ns)),
+        ("inputs", inputs, (N, m)),
+    ):
+        if arr.shape != shape:
+            problems.append(f"{label}: expected shape {shape}, found {arr.shape}")
+        elif not np.all(np.isfinite(arr)):
+            problems.append(f"{label}: expected finite values, found NaN or inf")
+    return phase, feedback, inputs, problems
+
+
 def schedule_design(
     controller: GainScheduled,
     phase: np.ndarray,
     feedback: np.ndarray,
     i: int,
-    constant: bool = True,
 ) -> tuple[np.ndarray, np.ndarray]:
     """The least-squares design of input ``i`` of ``T = T*(phi) - K(phi) s``.
 
@@ -261,8 +269,6 @@ def schedule_design(
     feedback : ndarray, shape (N, n_s)
     i : int
         The input (row of ``controller.mask``).
-    constant : bool
-        False: zero the ``T*`` columns (the design of an error in ``s`` alone).
 
     Returns
     -------
@@ -277,8 +283,7 @@ def schedule_design(
     a, b, w = controller.schedule.bracket(phase)
     allowed = np.flatnonzero(controller.mask[i])
     width = 1 + allowed.size
-    ones = np.ones((N, 1)) if constant else np.zeros((N, 1))
-    local = np.hstack([ones, -feedback[:, allowed]])
+    local = np.hstack([np.ones((N, 1)), -feedback[:, allowed]])
     design = np.zeros((N, P * width))
     rows = np.arange(N)
     for point, weight in ((a, 1.0 - w), (b, w)):

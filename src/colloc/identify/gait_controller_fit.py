@@ -21,7 +21,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from colloc.control.gain_scheduled import GainScheduled
-from colloc.identify.direct import check_determined, schedule_design
+from colloc.identify.direct import check_determined, schedule_data, schedule_design
 
 
 @dataclass
@@ -93,20 +93,10 @@ def fit_schedule_with_errors(
         :func:`colloc.identify.fit_gain_schedule`).
     """
     P, m, ns = controller.num_points, len(controller.inputs), len(controller.feedback)
-    phase, feedback, inputs = (np.asarray(a, dtype=float) for a in (phase, feedback, inputs))
+    phase, feedback, inputs, problems = schedule_data(controller, phase, feedback, inputs)
     blocks = np.asarray(blocks)
-    N = phase.shape[0] if phase.ndim == 1 else -1
-    problems = []
-    for label, arr, shape in (
-        ("phase", phase, (N,)),
-        ("feedback", feedback, (N, ns)),
-        ("inputs", inputs, (N, m)),
-        ("blocks", blocks, (N,)),
-    ):
-        if arr.shape != shape:
-            problems.append(f"{label}: expected shape {shape}, found {arr.shape}")
-        elif label != "blocks" and not np.all(np.isfinite(arr)):
-            problems.append(f"{label}: expected finite values, found NaN or inf")
+    if blocks.shape != phase.shape:
+        problems.append(f"blocks: expected shape {phase.shape}, found {blocks.shape}")
     if not problems and np.unique(blocks).size < 2:
         problems.append("blocks: expected at least two blocks (strides) for the sandwich")
     if noise_std is not None and np.shape(noise_std) != (m,):
