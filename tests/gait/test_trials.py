@@ -328,7 +328,7 @@ def test_settings_report_every_bad_field_before_any_work(monkeypatch, tmp_path):
     )  # fmt: skip
     expected = [
         "duration", "speed", "sample_rate", "body_mass", "height", "animation_seconds",
-        "motor_noise", "seed", "num_points", "num_nodes: expected an integer >= 20",
+        "motor_noise", "seed", "num_points", "num_nodes: expected an integer from 20 to 400",
         "noise: noise_std: unknown group 'knee'", "cache",
         "structure", "feedback: expected one of ['joints', 'joints+trunk', 'all']",
         "out: expected a directory, found an existing file", "belt_record",
@@ -570,7 +570,37 @@ def test_cli_passes_motor_and_sensor_noise(monkeypatch, capsys, tmp_path):
     summary = json.loads((out / "summary.json").read_text())
     assert summary["settings"]["motor_noise"] == 2.5 and summary["settings"]["noise"] == 0.0
     assert main(["gait", "simulate", "--motor-noise", "-1", "--out", str(out)]) == 2
-    assert "motor_noise: expected a finite number >= 0" in capsys.readouterr().err
+    assert "motor_noise: expected a number from 0 to 100.0" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize(
+    ("flags", "message"),
+    [
+        (["--duration", "0.001"], "duration: expected at least 3.0 s (two complete strides"),
+        (["--speed", "1e-9"], "speed: expected a walking speed from 0.5 to 2.0 m/s"),
+        (["--nodes", "1000000"], "num_nodes: expected an integer from 20 to 400"),
+        (["--motor-noise", "1e9"], "motor_noise: expected a number from 0 to 100.0"),
+        (["--points", "100000"], "num_points: expected an integer from 2 to 200"),
+        (["--out", ""], "argument --out: expected a path, found an empty one"),
+    ],
+)
+def test_gait_simulate_refuses_what_it_cannot_walk_before_any_work(
+    flags, message, monkeypatch, capsys, tmp_path
+):
+    """Each of these used to be accepted and fail 15-45 s later, unclearly (issue 32)."""
+    from colloc.cli import main
+
+    calls: list = []
+    fake_pipeline(monkeypatch, calls)
+    monkeypatch.chdir(tmp_path)
+    argv = ["gait", "simulate", "--unperturbed", "--out", str(tmp_path / "o"), *flags]
+    try:
+        code = main(argv)
+    except SystemExit as stop:  # argparse's own refusal (an empty path)
+        code = stop.code
+    assert code == 2
+    assert message in capsys.readouterr().err
+    assert calls == [] and not (tmp_path / "o").exists()
 
 
 def test_joint_isolated_structure_needs_joint_feedback():

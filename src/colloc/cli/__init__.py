@@ -52,6 +52,14 @@ def _process_noise(text: str) -> tuple[float, float]:
     return (parts[0], parts[-1])
 
 
+def _path(text: str) -> Path:
+    """A path argument: empty text is refused (``Path("")`` would silently be the working
+    folder)."""
+    if not text.strip():
+        raise argparse.ArgumentTypeError("expected a path, found an empty one")
+    return Path(text)
+
+
 def _output_problems(json_path: Path | None, out_dir: Path | None) -> list[str]:
     """What stops ``--json`` or ``--out`` from being written, found before any work (a file
     is created and removed where each will go)."""
@@ -116,7 +124,7 @@ def _identify_parser(gs: Any, default_url: str) -> None:
         help="identify the gain-scheduled controller T*(phi) - K(phi) s of a walking trial by "
         "direct collocation; fit on its first part, validate on the rest",
     )
-    idp.add_argument("trial", type=Path, help="trial directory (colloc.data.read_trial)")
+    idp.add_argument("trial", type=_path, help="trial directory (colloc.data.read_trial)")
     idp.add_argument(
         "--fit-fraction",
         type=_number,
@@ -189,9 +197,9 @@ def _identify_parser(gs: Any, default_url: str) -> None:
     idp.add_argument("--seed", type=_positive_int, default=d.seed, help="random seed")
     idp.add_argument("--db", default=default_url, help="results database URL")
     idp.add_argument("--no-store", action="store_true", help="do not store the run")
-    idp.add_argument("--out", type=Path, default=Path("gait-identification"), help="figures")
+    idp.add_argument("--out", type=_path, default=Path("gait-identification"), help="figures")
     idp.add_argument("--no-plots", action="store_true", help="do not draw figures")
-    idp.add_argument("--json", type=Path, default=None, help="write a summary here")
+    idp.add_argument("--json", type=_path, default=None, help="write a summary here")
 
 
 def _open_store(args: argparse.Namespace) -> Any:
@@ -347,9 +355,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--db", default=DEFAULT_URL, help="results database URL (default %(default)s)")
     p.add_argument("--no-store", action="store_true", help="do not store the run in the database")
     p.add_argument(
-        "--out", type=Path, default=Path("results"), help="directory for plots and animation"
+        "--out", type=_path, default=Path("results"), help="directory for plots and animation"
     )
-    p.add_argument("--json", type=Path, default=None, help="write a machine-readable summary here")
+    p.add_argument("--json", type=_path, default=None, help="write a machine-readable summary here")
     p.add_argument(
         "--repeat",
         type=_positive_int,
@@ -378,7 +386,7 @@ def build_parser() -> argparse.ArgumentParser:
     sim.add_argument(
         "--seed", type=_positive_int, default=0, help="random seed (default %(default)s)"
     )
-    sim.add_argument("--out", type=Path, default=Path("gait-simulation"), help="output directory")
+    sim.add_argument("--out", type=_path, default=Path("gait-simulation"), help="output directory")
     sim.add_argument(
         "--points",
         type=_positive_int,
@@ -445,7 +453,7 @@ def build_parser() -> argparse.ArgumentParser:
     show.add_argument("run_id")
     exp = rs.add_parser("export", help="export a run's arrays and parameters", parents=[after])
     exp.add_argument("run_id")
-    exp.add_argument("directory", type=Path)
+    exp.add_argument("directory", type=_path)
     exp.add_argument("--format", default="csv", help="csv or npz (default %(default)s)")
     exp.add_argument("--overwrite", action="store_true", help="replace files already there")
     dele = rs.add_parser("delete", help="delete a run", parents=[after])
@@ -485,7 +493,7 @@ def _batch_parser(sub: Any, default_url: str) -> None:
         "--db", default=None, help=f"results database URL (default: the file's, else {default_url})"
     )
     run = bs.add_parser("run", help="run a batch file", parents=[db])
-    run.add_argument("spec", type=Path, help="the batch file (YAML)")
+    run.add_argument("spec", type=_path, help="the batch file (YAML)")
     run.add_argument(
         "--check", action="store_true", help="check every entry and stop, running nothing"
     )
@@ -493,7 +501,7 @@ def _batch_parser(sub: Any, default_url: str) -> None:
     report = bs.add_parser("report", help="write a batch's tables and figures", parents=[db])
     report.add_argument("batch_id", help="the id, or a unique prefix")
     report.add_argument(
-        "--out", type=Path, default=None, help="folder (default: batch-report-<id prefix>)"
+        "--out", type=_path, default=None, help="folder (default: batch-report-<id prefix>)"
     )
     bs.add_parser("list", help="list recorded batches", parents=[db])
 

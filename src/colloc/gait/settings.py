@@ -29,6 +29,20 @@ BELT_RECORD_ENV = "COLLOC_BELT_RECORD"
 #: 480 s, 408 strides; P = 10 fell after 0.95 s). An identification must estimate
 #: P x (6 + 6 x 17) = 2160 parameters for it, against 21 600 at the former P = 200.
 DEFAULT_NUM_POINTS = 20
+#: Ranges the simulation works in, each checked before any work with its reason (outside
+#: them the run failed 15-45 s in, unclearly: issue 32's list).
+#: Two complete strides (about 1.1 s each) at least, for heel strikes to phase a trial.
+MIN_DURATION = 3.0
+#: Walking speeds [m/s]: the cycle search tracks Winter's normal stride, measured at 1.2 and
+#: 1.4 m/s; at 1e-9 m/s it ran out of iterations.
+SPEED_RANGE = (0.5, 2.0)
+#: Collocation nodes of the walking cycle: 60 (100 at 1.4 m/s) suffice; a million took all
+#: the memory.
+MAX_NUM_NODES = 400
+#: Schedule points: each is one periodic LQR design; 100 000 was still designing after 45 s.
+MAX_NUM_POINTS = 200
+#: Motor noise [N m]: real walking has 2-5; 1e9 broke the simulation.
+MAX_MOTOR_NOISE = 100.0
 
 #: Wall seconds per simulated second of walking, and the fixed cost before it (cycle, settle,
 #: design, figures). Measured on the 2-core machine at the defaults: 60 s of walking took
@@ -135,9 +149,20 @@ class GaitSimulationSettings:
             value = getattr(self, name)
             if not (_finite(value) and value > 0):
                 out.append(f"{name}: expected a positive finite number [{unit}], found {value!r}")
-        if not (_finite(self.motor_noise) and self.motor_noise >= 0):
+            elif name == "duration" and value < MIN_DURATION:
+                out.append(
+                    f"duration: expected at least {MIN_DURATION} s (two complete strides to "
+                    f"phase the trial), found {value!r}"
+                )
+            elif name == "speed" and not SPEED_RANGE[0] <= value <= SPEED_RANGE[1]:
+                out.append(
+                    f"speed: expected a walking speed from {SPEED_RANGE[0]} to {SPEED_RANGE[1]} "
+                    f"m/s (the walking cycle tracks a normal stride), found {value!r}"
+                )
+        if not (_finite(self.motor_noise) and 0 <= self.motor_noise <= MAX_MOTOR_NOISE):
             out.append(
-                f"motor_noise: expected a finite number >= 0 [N·m], found {self.motor_noise!r}"
+                f"motor_noise: expected a number from 0 to {MAX_MOTOR_NOISE} [N·m] (real "
+                f"walking has 2-5), found {self.motor_noise!r}"
             )
         if not (_finite(self.perturbation_scale) and self.perturbation_scale >= 0):
             out.append(
@@ -149,11 +174,25 @@ class GaitSimulationSettings:
         if isinstance(self.seed, bool) or not isinstance(self.seed, int) or self.seed < 0:
             out.append(f"seed: expected an integer >= 0, found {self.seed!r}")
         points = self.num_points
-        if isinstance(points, bool) or not isinstance(points, int) or points < 2:
-            out.append(f"num_points: expected an integer >= 2, found {points!r}")
+        if (
+            isinstance(points, bool)
+            or not isinstance(points, int)
+            or not 2 <= points <= MAX_NUM_POINTS
+        ):
+            out.append(
+                f"num_points: expected an integer from 2 to {MAX_NUM_POINTS} (one periodic LQR "
+                f"design each), found {points!r}"
+            )
         nodes = self.num_nodes
-        if isinstance(nodes, bool) or not isinstance(nodes, int) or nodes < MIN_NUM_NODES:
-            out.append(f"num_nodes: expected an integer >= {MIN_NUM_NODES}, found {nodes!r}")
+        if (
+            isinstance(nodes, bool)
+            or not isinstance(nodes, int)
+            or not MIN_NUM_NODES <= nodes <= MAX_NUM_NODES
+        ):
+            out.append(
+                f"num_nodes: expected an integer from {MIN_NUM_NODES} to {MAX_NUM_NODES} "
+                f"(60 suffice, 100 at 1.4 m/s), found {nodes!r}"
+            )
         try:
             resolve_noise_std(self.noise)
         except (TypeError, ValueError) as error:
@@ -171,6 +210,8 @@ class GaitSimulationSettings:
             )
         if not isinstance(self.out, str | os.PathLike):
             out.append(f"out: expected a directory path, found {type(self.out).__name__}")
+        elif not str(self.out).strip():
+            out.append("out: expected a directory path, found an empty one")
         elif Path(self.out).exists() and not Path(self.out).is_dir():
             out.append(f"out: expected a directory, found an existing file {str(self.out)!r}")
         if self.perturbed is True and not self.belt_path.is_file():
