@@ -118,6 +118,16 @@ def test_metadata_that_disagrees_with_the_columns(tmp_path):
     assert "disagree" in read_error(trial)
 
 
+def test_a_ragged_gain_array_in_the_metadata_is_named(tmp_path):
+    trial = copy_fixture(tmp_path)
+    meta = yaml.safe_load((trial / "metadata.yaml").read_text())
+    meta["controller"]["K"][0][0] = meta["controller"]["K"][0][0][:-1]  # one row short
+    (trial / "metadata.yaml").write_text(yaml.safe_dump(meta))
+    message = read_error(trial)
+    assert "controller K: expected a rectangular array of numbers" in message
+    assert "inhomogeneous" in message  # NumPy's reason, after colloc's
+
+
 def test_simulation_without_a_cycle_needs_the_reference_given():
     with pytest.raises(ValueError, match="stride_duration"):
         simulate_walking(None, np.zeros((2, 6)), np.zeros((2, 6, 12)), 1.0, None)

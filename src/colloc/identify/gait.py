@@ -557,9 +557,18 @@ def _metadata_problems(recorded: dict[str, Any]) -> list[str]:
     if names is not None and not isinstance(names, list):
         return [f"metadata: controller feedback: expected a list of names, found {names!r}"]
     if {"Tstar", "K", "mask"} <= set(recorded):
-        Tstar = np.asarray(recorded["Tstar"], dtype=float)
-        K = np.asarray(recorded["K"], dtype=float)
-        mask = np.asarray(recorded["mask"])
+        arrays = {}
+        for key, kind in (("Tstar", float), ("K", float), ("mask", bool)):
+            try:
+                arrays[key] = np.asarray(recorded[key], dtype=kind)
+            except (TypeError, ValueError) as error:
+                out.append(
+                    f"metadata: controller {key}: expected a rectangular array of numbers, "
+                    f"found one that is not ({error})"
+                )
+        if out:
+            return out
+        Tstar, K, mask = arrays["Tstar"], arrays["K"], arrays["mask"]
         ns = len(names) if names is not None else 2 * len(TORQUE_COLUMNS)
         m = len(TORQUE_COLUMNS)
         P = Tstar.shape[0] if Tstar.ndim == 2 else -1
