@@ -66,6 +66,11 @@ def test_too_few_strides_in_validation_part() -> None:
     # validation 10.21..12 s holds 10.4 and 11.5 s (1 stride).
     with pytest.raises(ValueError, match="leaves 8 complete strides in the fit part and 1 in"):
         split(make_trial(), 0.85)
+    # and how long a trial would do: 2 + 1 strides of 1.1 s in the 15 % held out, 22 s
+    with pytest.raises(
+        ValueError, match=r"a trial of about 22 s or longer at this trial's stride of 1\.10 s"
+    ):
+        split(make_trial(), 0.85)
 
 
 def test_too_few_strides_in_fit_part() -> None:

@@ -74,9 +74,17 @@ def split(trial: Trial, fit_fraction: float = 0.75) -> tuple[Trial, Trial]:
         "validate": _count_strides(validate.right_heel_strikes),
     }
     if min(strides.values()) < MIN_STRIDES:
+        # how long a record this fraction needs: MIN_STRIDES complete strides in the smaller
+        # part, and up to one more lost between its ends and the nearest strikes
+        total = strides["fit"] + strides["validate"]
+        stride = float(np.median(np.diff(trial.right_heel_strikes))) if total else float("nan")
+        share = min(fit_fraction, 1.0 - fit_fraction)
+        needed = (MIN_STRIDES + 1) / share * stride
         raise ValueError(
             f"fit_fraction={fit_fraction} leaves {strides['fit']} complete strides in the fit "
             f"part and {strides['validate']} in the validation part; each needs at least "
-            f"{MIN_STRIDES} (strides counted between right heel strikes)"
+            f"{MIN_STRIDES} (strides counted between right heel strikes): a trial of about "
+            f"{needed:.0f} s or longer at this trial's stride of {stride:.2f} s, or another "
+            f"fit fraction"
         )
     return fit, validate
