@@ -293,6 +293,15 @@ def test_events_file_problems(trial_dir: Path) -> None:
     events.to_csv(trial_dir / "events.csv", index=False)
     with pytest.raises(TrialError, match=r"'side' must be one of \['right', 'left'\].*'middle'"):
         read_trial(trial_dir)
+    events.loc[0, "side"] = "right"
+    events["time"] = events["time"].astype(object)
+    events.loc[1, "time"] = "abc"
+    events.to_csv(trial_dir / "events.csv", index=False)
+    with pytest.raises(
+        TrialError,
+        match=r"column 'time': expected numbers in seconds, found 1 that are not \(row 3: 'abc'\)",
+    ):
+        read_trial(trial_dir)
     events.rename(columns={"time": "t"}).to_csv(trial_dir / "events.csv", index=False)
     with pytest.raises(TrialError, match=r"events.csv is missing columns \['time'\]"):
         read_trial(trial_dir)

@@ -334,6 +334,16 @@ def _read_events(path: Path, problems: list[str]) -> dict[str, np.ndarray]:
     if unknown:
         problems.append(f"{path.name} column 'side' must be one of {list(SIDES)}, found {unknown}")
     times = pd.to_numeric(frame["time"], errors="coerce").to_numpy(dtype=float)
+    text = frame["time"].astype(str).str.strip()
+    unreadable = np.isnan(times) & ~text.str.lower().isin(["nan", ""]).to_numpy()
+    if unreadable.any():
+        rows = np.flatnonzero(unreadable)
+        shown = ", ".join(f"row {int(i) + 2}: {text.iloc[int(i)]!r}" for i in rows[:3])
+        problems.append(
+            f"{path.name} column 'time': expected numbers in seconds, found {rows.size} "
+            f"that are not ({shown}{', ...' if rows.size > 3 else ''})"
+        )
+        return empty
     return {side: times[(sides == side).to_numpy()] for side in SIDES}
 
 
