@@ -88,6 +88,10 @@ def test_every_problem_of_the_file_is_listed_at_once():
         (b"- kind: pendulum\n", "expected a mapping with a list 'runs', found list"),
         (b"runs: []\n", "runs: expected a non-empty list"),
         (b"!!python/object:os.system {}\n", "not valid YAML"),  # safe_load refuses objects
+        (
+            b"runs:\n  - kind: pendulum\n    seed: 4\n    seed: 5\n",
+            r"not valid YAML \(found the key 'seed' twice \(lines 3 and 4\)",
+        ),
     ],
 )
 def test_a_bad_file_names_itself_and_what_is_wrong(tmp_path, content, message):

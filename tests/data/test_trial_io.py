@@ -287,6 +287,15 @@ def test_metadata_file_problems(trial_dir: Path) -> None:
     assert read_trial(trial_dir).metadata == {}
 
 
+def test_a_key_given_twice_in_the_metadata_is_refused(trial_dir: Path) -> None:
+    path = trial_dir / "metadata.yaml"
+    path.write_text(path.read_text() + "sample_rate: 50.0\n")  # the file has one already
+    with pytest.raises(
+        TrialError, match=r"cannot parse metadata.yaml: found the key 'sample_rate' twice"
+    ):
+        read_trial(trial_dir)
+
+
 def test_events_file_problems(trial_dir: Path) -> None:
     events = pd.read_csv(trial_dir / "events.csv")
     events.loc[0, "side"] = "middle"

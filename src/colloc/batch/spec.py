@@ -37,6 +37,8 @@ from typing import Any
 
 import yaml
 
+from colloc.data.yaml_io import safe_load_unique
+
 #: Most entries one batch may expand to.
 MAX_ENTRIES = 100_000
 
@@ -136,7 +138,7 @@ def read_batch_spec(path: str | os.PathLike[str], kinds: tuple[str, ...]) -> Bat
     except OSError as error:
         raise BatchSpecError([f"cannot be read ({error.strerror or error})"], where) from error
     try:
-        raw = yaml.safe_load(text)
+        raw = safe_load_unique(text)
     except yaml.YAMLError as error:
         raise BatchSpecError([f"not valid YAML ({error})"], where) from error
     return expand_batch(raw, kinds, where)

@@ -46,6 +46,7 @@ from colloc.data.checks import (
     time_problems,
 )
 from colloc.data.columns import COLUMN_UNITS, SIDES, TIME_COLUMN
+from colloc.data.yaml_io import safe_load_unique
 
 TRIAL_FILE_NAMES: tuple[str, ...] = ("trial.csv", "trial.tsv")
 """Names of the time-series file searched for in a trial directory, in order."""
@@ -352,7 +353,7 @@ def _read_metadata(path: Path, problems: list[str]) -> dict[str, Any]:
         return {}
     try:
         with open(path, encoding="utf-8") as stream:
-            loaded = yaml.safe_load(stream)
+            loaded = safe_load_unique(stream)
     except yaml.YAMLError as error:
         problems.append(f"cannot parse {path.name}: {error}")
         return {}
