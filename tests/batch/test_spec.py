@@ -134,6 +134,27 @@ def test_entries_get_the_commands_own_checks_named_by_entry(tmp_path):
     assert len(problems) == 3 and len(tasks) == 1
 
 
+def test_option_names_are_exact_not_prefixes(tmp_path):
+    """argparse matched prefixes: ``numlink: 2`` ran 2 links and ``no-s: true`` slipped past
+    the per-entry ban on ``no-store``; ``rep: 3`` was ignored (issue 32 item 9)."""
+    spec = expand_batch(
+        {
+            "runs": [
+                {"kind": "pendulum", "numlink": 2},
+                {"kind": "pendulum", "no-s": True},
+                {"kind": "pendulum", "rep": 3},
+                {"kind": "pendulum", "numlinks": 2, "out": str(tmp_path)},
+            ]
+        },
+        KIND_NAMES,
+    )
+    tasks, problems = build_tasks(spec.entries)
+    assert len(problems) == 3 and len(tasks) == 1
+    for i, name in enumerate(("--numlink", "--no-s", "--rep")):
+        assert problems[i].startswith(f"runs[{i}] (pendulum, entry {i}): ")
+        assert f"unrecognized arguments: {name}" in problems[i]
+
+
 def test_a_simulated_trial_feeds_the_identification_that_reads_it(tmp_path):
     trial = tmp_path / "trials" / "seed-1"
     spec = expand_batch(

@@ -52,6 +52,17 @@ def _process_noise(text: str) -> tuple[float, float]:
     return (parts[0], parts[-1])
 
 
+def _exact_option_names(parser: argparse.ArgumentParser) -> None:
+    """Refuse abbreviated option names in ``parser`` and every subcommand's parser:
+    ``--numlink 2`` must not silently mean ``--numlinks 2`` (nor, in a batch file, slip a
+    banned ``no-store`` past its check as ``no-s``)."""
+    parser.allow_abbrev = False
+    for action in parser._actions:
+        if isinstance(action, argparse._SubParsersAction):
+            for child in action.choices.values():
+                _exact_option_names(child)
+
+
 def _path(text: str) -> Path:
     """A path argument: empty text is refused (``Path("")`` would silently be the working
     folder)."""
@@ -459,6 +470,7 @@ def build_parser() -> argparse.ArgumentParser:
     dele = rs.add_parser("delete", help="delete a run", parents=[after])
     dele.add_argument("run_id", help=f"the id, or a unique prefix of >= {MIN_DELETE_PREFIX}")
     dele.add_argument("--yes", action="store_true", help="allow a shorter prefix")
+    _exact_option_names(parser)
     return parser
 
 
