@@ -276,8 +276,26 @@ def test_tracking_arguments():
         Tracking([np.zeros(3)])
     with pytest.raises(ValueError, match=r"weights: outputs \['u'\] have no measurements"):
         Tracking({q: np.zeros(3)}, weights={u: 2.0})
-    with pytest.raises(ValueError, match=r"weights: expected non-negative numbers.*\['q'\]"):
+    with pytest.raises(
+        ValueError, match=r"weights: expected non-negative finite numbers.*'q: -1.0'"
+    ):
         Tracking({q: np.zeros(3)}, weights=-1.0)
+    # a NaN weight is not 'negative', and an infinite one is refused too (issue 32 item 15)
+    with pytest.raises(
+        ValueError, match=r"weights: expected non-negative finite numbers.*'q: nan'"
+    ):
+        Tracking({q: np.zeros(3)}, weights=float("nan"))
+    with pytest.raises(ValueError, match=r"weights: expected finite numbers, found infinite"):
+        Tracking({q: np.zeros(3)}, weights=float("inf"))
+    with pytest.raises(ValueError, match=r"measurements: expected numbers at the nodes .*q \(str"):
+        Tracking({q: "0.1, 0.2"})
+
+
+def test_known_trajectories_keyed_by_a_string_or_not_numbers_are_named(model):
+    with pytest.raises(ProblemDefinitionError, match=r"the key 'f' is a string: key each"):
+        make(model, known_trajectories={"f": np.zeros(5)})
+    with pytest.raises(ProblemDefinitionError, match=r"known_trajectories\[f\]: expected numbers"):
+        make(model, known_trajectories={f: "zeros"})
 
 
 def test_cost_terms_need_sympy_expressions():

@@ -104,7 +104,17 @@ class Tracking(ObjectiveTerm):
                 "measurements: expected a non-empty mapping output symbol -> array, "
                 f"found {type(measurements).__name__}"
             )
-        self.measurements = {y: np.asarray(v, dtype=float) for y, v in measurements.items()}
+        self.measurements = {}
+        unreadable = []
+        for y, v in measurements.items():
+            try:
+                self.measurements[y] = np.asarray(v, dtype=float)
+            except (TypeError, ValueError):
+                unreadable.append(f"{name_of(y)} ({type(v).__name__} {str(v)[:40]!r})")
+        if unreadable:
+            raise ValueError(
+                f"measurements: expected numbers at the nodes (an array), found {unreadable}"
+            )
         if weights is None or isinstance(weights, int | float):
             w = 1.0 if weights is None else float(weights)
             self.weights = dict.fromkeys(self.measurements, w)
@@ -113,11 +123,12 @@ class Tracking(ObjectiveTerm):
             if unknown:
                 raise ValueError(f"weights: outputs {unknown} have no measurements")
             self.weights = {y: float(weights.get(y, 1.0)) for y in self.measurements}
-        negative = [name_of(y) for y, w in self.weights.items() if not w >= 0]
-        if negative:
-            raise ValueError(
-                f"weights: expected non-negative numbers, found negative for {negative}"
-            )
+        bad = [f"{name_of(y)}: {w!r}" for y, w in self.weights.items() if not w >= 0]
+        if bad:
+            raise ValueError(f"weights: expected non-negative finite numbers, found {bad}")
+        infinite = [name_of(y) for y, w in self.weights.items() if not np.isfinite(w)]
+        if infinite:
+            raise ValueError(f"weights: expected finite numbers, found infinite for {infinite}")
 
     def node_term(self, model: Model, times: np.ndarray, index: int) -> NodeTerm:
         """See :meth:`ObjectiveTerm.node_term`."""

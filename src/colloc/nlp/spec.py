@@ -39,6 +39,12 @@ def check_trajectories(
             interpolations[r] = (
                 entry.between if isinstance(entry, KnownTrajectory) else CubicInterpolation()
             )
+        if isinstance(r, str):
+            problems.append(
+                f"known_trajectories: the key {r!r} is a string: key each trajectory by the "
+                f"input itself, e.g. {r}(t) (inputs: {[name_of(i) for i in model.inputs]})"
+            )
+            continue
         if r not in model.inputs:
             where = "a state" if r in model.states else "not an input of the model"
             problems.append(
@@ -46,7 +52,14 @@ def check_trajectories(
                 f"{[name_of(i) for i in model.inputs]})"
             )
             continue
-        arr = np.asarray(values, dtype=float)
+        try:
+            arr = np.asarray(values, dtype=float)
+        except (TypeError, ValueError):
+            problems.append(
+                f"known_trajectories[{name_of(r)}]: expected numbers at the nodes, found "
+                f"{type(values).__name__} {str(values)[:40]!r}"
+            )
+            continue
         if arr.shape != (num_nodes,):
             problems.append(
                 f"known_trajectories[{name_of(r)}]: expected shape ({num_nodes},) (one value per "
