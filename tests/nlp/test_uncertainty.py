@@ -13,6 +13,7 @@
 
 from __future__ import annotations
 
+import warnings
 from dataclasses import dataclass
 
 import numpy as np
@@ -364,3 +365,21 @@ def test_uncertainty_method_and_blocks_are_checked(study):
     by_count = parameter_uncertainty(study.problem, solution, method="sandwich", blocks=20)
     by_start = parameter_uncertainty(study.problem, solution, method="sandwich", blocks=starts)
     np.testing.assert_allclose(by_count.covariance, by_start.covariance, rtol=1e-12)
+
+
+def test_errors_of_a_solve_that_did_not_converge_come_with_a_warning(study):
+    measured = study.noisy(3)
+    study.problem.replace_data(objective=study.tracking(measured))
+    q, qd, _ = smooth_with_derivatives(study.times, measured, 0.15)
+    z0 = study.problem.initial_guess(
+        dict(zip(study.closed.states, np.hstack([q, qd]).T, strict=True)),
+        dict(zip(study.gains, study.known, strict=True)),
+    )
+    unconverged = study.problem.solve(z0, max_iter=0)
+    assert not unconverged.status.success
+    with pytest.warns(UserWarning, match=r"the solve did not converge \(Maximum_Iterations"):
+        parameter_uncertainty(study.problem, unconverged)
+    converged = study.solve(measured)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # a converged solve's errors come without one
+        parameter_uncertainty(study.problem, converged)

@@ -17,6 +17,7 @@ whether a planned experiment can identify the parameters at all.
 
 from __future__ import annotations
 
+import warnings
 from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
@@ -127,7 +128,20 @@ def parameter_uncertainty(
         When there are no unknown parameters, no more measurements than free quantities,
         the KKT matrix is singular (unidentifiable parameters), or ``method`` or ``blocks``
         is not one of the accepted values.
+
+    Warns
+    -----
+    UserWarning
+        When ``solution`` is not a converged solve (a failed solve, or ``max_iter=0``):
+        the errors then describe a point that is not the estimate's optimum.
     """
+    if not solution.status.success:
+        warnings.warn(
+            f"solution: the solve did not converge ({solution.status.name}); standard errors "
+            "at a point that is not an optimum do not describe an estimate",
+            UserWarning,
+            stacklevel=2,
+        )
     if method not in METHODS:
         raise ValueError(f"method: expected one of {list(METHODS)}, found {method!r}")
     nlp, lay = problem.nlp, problem.layout
