@@ -228,6 +228,8 @@ def test_controller_metadata_errors():
         ({"mask": mask[:, :5].tolist()}, r"'mask': expected shape \(6, 12\), found \(6, 5\)"),
         ({"Tstar": [["a"] * 6]}, r"'Tstar': not a numeric array"),
         ({"feedback": ["x"]}, r"'feedback': names 1 signals, K has 12 columns"),
+        # written by hand, not by controller_metadata: a gain the structure forbids (issue 32)
+        ({"K": K_bad.tolist()}, r"'K': 1 non-zero gains where 'mask' allows none"),
     ]
     for change, message in cases:
         with pytest.raises(ValueError, match=message):

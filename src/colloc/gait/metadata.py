@@ -167,6 +167,12 @@ def controller_from_metadata(
             )
         elif mask.shape != K.shape[1:]:
             problems.append(f"controller 'mask': expected shape {K.shape[1:]}, found {mask.shape}")
+        elif np.any(K[:, ~mask] != 0):
+            outside = int(np.count_nonzero(K[:, ~mask]))
+            problems.append(
+                f"controller 'K': {outside} non-zero gains where 'mask' allows none (the "
+                "controller's structure says they are zero)"
+            )
         feedback = controller.get("feedback")
         if feedback is not None and K.ndim == 3 and len(feedback) != K.shape[2]:
             problems.append(

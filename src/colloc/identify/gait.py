@@ -35,6 +35,7 @@ from __future__ import annotations
 
 import resource
 import time
+import warnings
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any
@@ -689,10 +690,13 @@ def _standard_errors(
         if strides is None:
             bound = cramer_rao_bound(problem, solution.z, noise_variance)
         else:
-            bound = parameter_uncertainty(
-                problem, solution, method="sandwich", blocks=[int(b) for b in strides]
-            )
+            with warnings.catch_warnings(record=True) as caught:
+                warnings.simplefilter("always")
+                bound = parameter_uncertainty(
+                    problem, solution, method="sandwich", blocks=[int(b) for b in strides]
+                )
             notes.append(f"standard errors: sandwich over {len(strides)} strides")
+            notes += [str(w.message) for w in caught]  # in the run's notes, not on stderr
     except ValueError as exc:
         notes.append(f"no standard errors: {exc}")
         return None, None
