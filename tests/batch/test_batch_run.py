@@ -230,3 +230,16 @@ def test_ctrl_c_cancels_the_batch_cleanly_and_keeps_the_finished_runs(tmp_path):
         assert done_ids <= set(store.list()["run_id"])  # every finished run is stored whole
         for run_id in store.list()["run_id"]:
             assert store.get(run_id).arrays["times"].shape == (1001,)
+
+
+@pytest.mark.parametrize("value", ["0", "-1"])
+def test_a_cluster_of_no_workers_is_refused_before_any_work(value, capsys):
+    """``--workers -1`` waited for ever at 0/1 (issue 32 item 11)."""
+    from colloc.cli import main
+
+    with pytest.raises(SystemExit) as stop:
+        main(["pendulum", "-n", "1", "--repeat", "2", "--workers", value, "--no-store"])
+    assert stop.value.code == 2
+    assert f"argument --workers: expected an integer >= 1, found '{value}'" in (
+        capsys.readouterr().err
+    )

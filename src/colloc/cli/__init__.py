@@ -35,6 +35,14 @@ def _positive_int(text: str) -> int:
     return value
 
 
+def _at_least_one(text: str) -> int:
+    """A count: an integer >= 1 (``--workers -1`` waited for ever on a cluster of none)."""
+    value = _positive_int(text)
+    if value < 1:
+        raise argparse.ArgumentTypeError(f"expected an integer >= 1, found {text!r}")
+    return value
+
+
 def _number(text: str) -> float:
     try:
         return float(text)
@@ -478,7 +486,7 @@ def _cluster_flags(parser: argparse.ArgumentParser) -> None:
     """``--workers`` and ``--scheduler``: where a batch runs."""
     parser.add_argument(
         "--workers",
-        type=_positive_int,
+        type=_at_least_one,
         default=None,
         help="workers of the local Dask cluster, one thread each (default: one per core)",
     )
