@@ -17,7 +17,7 @@ import sympy as sm
 from sympy.physics.mechanics import dynamicsymbols
 
 import colloc
-from colloc.solve.watchdog import SolverStalled, run_watched, watch_available
+from colloc.solve.watchdog import SolverCrashed, SolverStalled, run_watched, watch_available
 
 pytestmark = pytest.mark.skipif(not watch_available(), reason="needs fork")
 
@@ -78,15 +78,35 @@ def test_a_solver_that_crashes_leaves_this_process_running_with_a_clear_error():
         run_watched(crashing, None, stall_seconds=5.0)
 
 
-def decay_problem():
+def decay_problem(cache=True):
     """``x' = -k x`` tracked on noisy data: k = 0.7."""
     xs = dynamicsymbols("x")
     k = sm.Symbol("k")
     model = colloc.Model.from_equations([xs.diff() + k * xs], [xs])
     times = np.linspace(0.0, 3.0, 61)
     data = np.exp(-0.7 * times) + np.random.default_rng(1).normal(0.0, 0.01, times.size)
-    problem = colloc.Problem(model, times, objective=colloc.Tracking({xs: data}))
+    problem = colloc.Problem(model, times, objective=colloc.Tracking({xs: data}), cache=cache)
     return problem, problem.initial_guess({xs: data}, {k: 0.2}), k
+
+
+@pytest.mark.parametrize("from_cache", [True, False])
+def test_a_crash_after_a_cache_load_says_the_cache_may_be_at_fault(tmp_path, from_cache):
+    decay_problem(cache=tmp_path)  # the first build writes the entry
+    problem, z0, _ = decay_problem(cache=tmp_path if from_cache else False)
+    assert problem.cache_hit is from_cache
+    parent = os.getpid()
+    objective = problem.nlp.objective
+
+    def crash_in_the_solver(z):
+        if os.getpid() != parent:
+            os.abort()  # as native code loaded from a bad entry would end the process
+        return objective(z)
+
+    problem.nlp.objective = crash_in_the_solver
+    with pytest.raises(SolverCrashed, match=r"exit code -6") as err:
+        problem.solve(z0, print_level=0, stall_seconds=10.0)
+    notes = " ".join(getattr(err.value, "__notes__", []))
+    assert ("colloc cache clear" in notes) is from_cache
 
 
 def test_a_stalled_exact_solve_is_solved_again_with_the_limited_memory_hessian():

@@ -158,14 +158,14 @@ def test_build_cache_round_trip_and_keys(tmp_path):
     assert list(tmp_path.glob("*.tmp")) == []  # atomic write leaves no temporary file
 
 
-def test_an_entry_is_used_only_when_its_checksum_and_key_match(tmp_path):
+def test_an_entry_is_used_only_when_its_signature_and_key_match(tmp_path):
     build(tmp_path)
     (path,) = tmp_path.glob("*.json")
     entry = json.loads(path.read_text())
-    assert entry["format"] == 2 and entry["key"] == path.stem
+    assert entry["format"] == 3 and entry["key"] == path.stem
     entry["payload"]["interval"] = entry["payload"]["node"]  # planted: a valid but other function
     path.write_text(json.dumps(entry))
-    with pytest.warns(UserWarning, match="does not match its checksum"):
+    with pytest.warns(UserWarning, match="not signed by this user's colloc"):
         assert not build(tmp_path).cache_hit
     assert build(tmp_path).cache_hit
 
@@ -200,4 +200,93 @@ def test_clear_deletes_only_entries(tmp_path):
     store = BuildCache(tmp_path)
     assert len(store.entries()) == 1
     assert store.clear() == 1
-    assert [p.name for p in tmp_path.iterdir()] == ["notes.json"]
+    assert sorted(p.name for p in tmp_path.iterdir()) == [".key", "notes.json"]
+
+
+def test_a_planted_entry_with_a_recomputed_checksum_is_not_loaded(tmp_path):
+    """Whoever writes an entry cannot sign it: the secret is the user's, beside the entries."""
+    import hashlib
+
+    build(tmp_path)
+    (path,) = tmp_path.glob("*.json")
+    entry = json.loads(path.read_text())
+    entry["payload"]["interval"] = entry["payload"]["node"]
+    text = json.dumps(entry["payload"], sort_keys=True).encode()
+    entry["hmac"] = hashlib.sha256(text).hexdigest()  # a plain checksum, as before
+    path.write_text(json.dumps(entry))
+    with pytest.warns(UserWarning, match="not signed by this user's colloc"):
+        assert not build(tmp_path).cache_hit
+    assert (tmp_path / ".key").stat().st_mode & 0o077 == 0
+
+
+def _signed_entry_with(tmp_path, field, text):
+    """Sign ``text`` into the cached entry's interval ``field`` as colloc would."""
+    build(tmp_path)
+    (path,) = tmp_path.glob("*.json")
+    store = BuildCache(tmp_path)
+    payload = store.get(path.stem)
+    payload["interval"][field] = text
+    store.put(path.stem, payload)
+    return path
+
+
+@pytest.mark.parametrize(
+    ("field", "make", "reason"),
+    [
+        ("values", lambda ca: _nested(ca), "not a plain SXFunction"),
+        ("jacobian", lambda ca: _jit(ca), "JIT-compiled"),
+        ("hessian", lambda ca: "zz not casadi", "letters a-p"),
+        ("values", lambda ca: 42, "expected a serialised function"),
+    ],
+    ids=["mx-with-call", "jit-on", "not-serialised", "not-text"],
+)
+def test_a_payload_that_is_not_a_plain_sx_function_is_refused_before_casadi_reads_it(
+    tmp_path, monkeypatch, field, make, reason
+):
+    """Even signed, an entry holding what colloc never stores is not deserialised."""
+    import casadi as ca
+
+    path = _signed_entry_with(tmp_path, field, make(ca))
+    deserialised = []
+    real = ca.Function.deserialize
+    monkeypatch.setattr(
+        ca.Function, "deserialize", staticmethod(lambda s: deserialised.append(s) or real(s))
+    )
+    with pytest.warns(UserWarning, match=f"{path} not used, rebuilding: .*({reason})"):
+        assert not build(tmp_path).cache_hit
+    assert deserialised == [] or field != "values"  # refused before the first function
+    assert all(s != make(ca) for s in deserialised)
+
+
+def _nested(ca):
+    x = ca.SX.sym("x")
+    inner = ca.Function("inner", [x], [ca.sin(x)])
+    y = ca.MX.sym("y")
+    return ca.Function("outer", [y], [inner(y)]).serialize()
+
+
+def _jit(ca):
+    """A plain function's text with its JIT flag set (compiling needs no compiler to store)."""
+    from colloc.numeric.casadi_payload import decode
+
+    x = ca.SX.sym("x")
+    stream = decode(ca.Function("f", [x], [x * x]).serialize())
+    flagged = stream.replace(b"\x00\x01\x06\x00\x00\x00source", b"\x01\x01\x06\x00\x00\x00source")
+    assert flagged != stream
+    return "".join(chr(97 + (b & 15)) + chr(97 + (b >> 4)) for b in flagged)
+
+
+def test_plain_functions_pass_the_payload_check():
+    import casadi as ca
+
+    from colloc.numeric.casadi_payload import decode, plain_function_problem
+
+    x = ca.SX.sym("x", 3)
+    f = ca.Function("f", [x], [ca.sin(x) * x[0]])
+    assert plain_function_problem(f.serialize()) is None
+    jac = ca.Function("f_jac", [x], [ca.jacobian(f(x), x)])  # as colloc builds them
+    assert plain_function_problem(jac.serialize()) is None
+    assert "2 functions" in plain_function_problem(f.jacobian().serialize())  # holds f too
+    text = f.serialize()
+    encoded_again = "".join(chr(97 + (b & 15)) + chr(97 + (b >> 4)) for b in decode(text))
+    assert encoded_again == text  # the decoding is CasADi's, byte for byte

@@ -5,6 +5,7 @@ from __future__ import annotations
 import functools
 import hashlib
 import logging
+import warnings
 from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
@@ -121,8 +122,12 @@ def build_templates(
                     k: None if v is None else StencilFunctions.from_bytes(v)
                     for k, v in entry.items()
                 }, True
-            except Exception as exc:  # a stale or corrupt entry is rebuilt, never fatal
-                logger.warning("rebuilding after unusable cache entry %s: %s", key, exc)
+            except Exception as exc:  # a stale, corrupt or foreign entry is rebuilt, never fatal
+                warnings.warn(
+                    f"build cache entry {store.path(key)} not used, rebuilding: {exc}",
+                    UserWarning,
+                    stacklevel=4,
+                )
     F = residual_function(part.model)
     templates: dict[str, StencilFunctions | None] = {
         "interval": interval_template(part, scheme, F),

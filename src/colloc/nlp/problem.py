@@ -38,7 +38,7 @@ from colloc.nlp.templates import Partition
 from colloc.solve.gauss_newton import ChainStructure, GaussNewtonOptions, solve_gauss_newton
 from colloc.solve.ipopt import STALL_SECONDS, solve_nlp
 from colloc.solve.result import SolveResult
-from colloc.solve.watchdog import SolverStalled
+from colloc.solve.watchdog import SolverCrashed, SolverStalled
 from colloc.transcription.base import Scheme, TimeGrid
 from colloc.transcription.interpolation import Interpolation
 from colloc.transcription.midpoint import Midpoint
@@ -525,6 +525,9 @@ class Problem:
         ------
         SolverStalled
             When the limited-memory solve was stopped by the watchdog too.
+        SolverCrashed
+            When the solver's process died without a result; when the problem's functions
+            came from the build cache, a note says how to clear it.
 
         Warns
         -----
@@ -562,6 +565,14 @@ class Problem:
 
         try:
             result = run(hessian)
+        except SolverCrashed as crashed:
+            if self.cache_hit:
+                crashed.add_note(
+                    "this problem's functions were loaded from the build cache: if an entry is "
+                    "at fault, clear it (`colloc cache clear`, or BuildCache().clear()) or build "
+                    "with cache=False, and report the crash"
+                )
+            raise
         except SolverStalled as stalled:
             if hessian == "limited-memory":
                 raise

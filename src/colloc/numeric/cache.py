@@ -3,9 +3,11 @@
 from __future__ import annotations
 
 import hashlib
+import hmac
 import json
 import logging
 import os
+import secrets
 import stat
 import tempfile
 import warnings
@@ -18,7 +20,10 @@ import casadi as ca
 logger = logging.getLogger(__name__)
 
 #: Bump when the layout of cached entries changes.
-CACHE_FORMAT = 2
+CACHE_FORMAT = 3
+
+#: The secret that signs entries, private to the user, beside them.
+KEY_FILE = ".key"
 
 
 def default_cache_dir() -> Path:
@@ -41,11 +46,14 @@ def cache_key(parts: Iterable[str]) -> str:
 class BuildCache:
     """A directory of JSON files, one per key; writes are atomic (temp file + rename).
 
-    Each entry records the cache format, its key and the SHA-256 of its payload, and is
-    used only when all three match; CasADi deserialises the payload into functions it will
-    run, so a directory or entry another user could have written (not owned by this user,
-    or writable by group or others) is not read at all. Either way the entry is rebuilt and
-    a warning names the file.
+    Each entry records the cache format, its key and an HMAC-SHA256 of its payload under a
+    secret that only this user can read (``.key`` in the directory, created with mode 0600),
+    and is used only when all three match: CasADi deserialises the payload into functions it
+    will run, so only entries colloc itself wrote are loaded; a checksum anyone could
+    recompute would not do. A directory, key or entry another user could have written (not
+    owned by this user, or writable by group or others) is not read at all. Either way the
+    entry is rebuilt and a warning names the file. What is inside a payload is checked again
+    by whoever deserialises it (:meth:`colloc.numeric.stencil.StencilFunctions.from_bytes`).
 
     Parameters
     ----------
@@ -56,8 +64,37 @@ class BuildCache:
     def __init__(self, directory: str | Path | None = None) -> None:
         self.directory = Path(directory) if directory is not None else default_cache_dir()
 
-    def _path(self, key: str) -> Path:
+    def path(self, key: str) -> Path:
+        """The file that holds (or would hold) the entry under ``key``.
+
+        Parameters
+        ----------
+        key : str
+
+        Returns
+        -------
+        Path
+        """
         return self.directory / f"{key}.json"
+
+    def _secret(self, create: bool) -> bytes | None:
+        """The signing secret; made on first use when ``create``; None if absent or untrusted."""
+        path = self.directory / KEY_FILE
+        if create and not path.exists():
+            try:
+                fd = os.open(path, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o600)
+            except FileExistsError:
+                pass  # another process made it first
+            else:
+                with os.fdopen(fd, "wb") as fh:
+                    fh.write(secrets.token_bytes(32))
+        if self.untrusted(path) is not None:
+            return None
+        try:
+            secret = path.read_bytes()
+        except OSError:
+            return None
+        return secret if len(secret) == 32 else None
 
     def untrusted(self, path: Path | None = None) -> str | None:
         """Why ``path`` (default: the directory) must not be read, or None when it may.
@@ -85,15 +122,21 @@ class BuildCache:
     def get(self, key: str) -> dict[str, Any] | None:
         """The entry stored under ``key``, or ``None`` (missing, unreadable, stale or untrusted:
         each but the first with a warning naming the file)."""
-        path = self._path(key)
+        path = self.path(key)
         if not path.is_file():
             return None
         reason = self.untrusted() or self.untrusted(path)
-        if reason is None:
+        secret = self._secret(create=False) if reason is None else None
+        if reason is None and secret is None:
+            reason = (
+                f"no signing key that this user alone can write ({self.directory / KEY_FILE}): "
+                "the entry cannot be shown to be colloc's own"
+            )
+        if reason is None and secret is not None:
             try:
                 with path.open(encoding="utf-8") as fh:
                     entry = json.load(fh)
-                reason = _entry_problem(entry, key)
+                reason = _entry_problem(entry, key, secret)
             except (OSError, ValueError) as exc:
                 reason = f"unreadable ({exc})"
         if reason is not None:
@@ -110,12 +153,16 @@ class BuildCache:
         """Store ``entry`` under ``key``; failures are logged, never raised (a cache is optional)."""
         try:
             self.directory.mkdir(parents=True, exist_ok=True, mode=0o700)
-            record = {"format": CACHE_FORMAT, "key": key, "sha256": _payload_digest(entry)}
+            secret = self._secret(create=True)
+            if secret is None:
+                logger.warning("no usable signing key in %s: entry not written", self.directory)
+                return
+            record = {"format": CACHE_FORMAT, "key": key, "hmac": _payload_mac(entry, secret)}
             record["payload"] = entry
             fd, tmp = tempfile.mkstemp(dir=self.directory, suffix=".tmp")  # 0600: private
             with os.fdopen(fd, "w", encoding="utf-8") as fh:
                 json.dump(record, fh)
-            os.replace(tmp, self._path(key))
+            os.replace(tmp, self.path(key))
         except OSError as exc:
             logger.warning("could not write cache entry in %s: %s", self.directory, exc)
 
@@ -145,11 +192,12 @@ class BuildCache:
         return count
 
 
-def _payload_digest(payload: dict[str, Any]) -> str:
-    return hashlib.sha256(json.dumps(payload, sort_keys=True).encode()).hexdigest()
+def _payload_mac(payload: dict[str, Any], secret: bytes) -> str:
+    text = json.dumps(payload, sort_keys=True).encode()
+    return hmac.new(secret, text, hashlib.sha256).hexdigest()
 
 
-def _entry_problem(entry: Any, key: str) -> str | None:
+def _entry_problem(entry: Any, key: str, secret: bytes) -> str | None:
     """What is wrong with a loaded entry, or None."""
     if not isinstance(entry, dict) or "payload" not in entry:
         return "not an entry of this cache format (written by an older colloc?)"
@@ -157,8 +205,11 @@ def _entry_problem(entry: Any, key: str) -> str | None:
         return f"cache format {entry.get('format')!r}, this colloc writes {CACHE_FORMAT}"
     if entry.get("key") != key:
         return "stored under another key"
-    if entry.get("sha256") != _payload_digest(entry["payload"]):
-        return "its content does not match its checksum"
+    mac = entry.get("hmac")
+    if not isinstance(mac, str) or not hmac.compare_digest(
+        mac, _payload_mac(entry["payload"], secret)
+    ):
+        return "not signed by this user's colloc (its content or signature was changed)"
     return None
 
 

@@ -14,6 +14,11 @@ from dataclasses import dataclass
 import casadi as ca
 import numpy as np
 
+from colloc.numeric.casadi_payload import plain_function_problem
+
+#: The functions of a stencil, in the order they are stored.
+FUNCTION_FIELDS = ("values", "jacobian", "hessian")
+
 
 def _nonzeros(expr: ca.SX) -> ca.SX:
     return expr.get_nz(False, ca.Slice())
@@ -111,11 +116,25 @@ class StencilFunctions:
 
     @classmethod
     def from_bytes(cls, blob: dict[str, object]) -> StencilFunctions:
-        """Inverse of :meth:`to_bytes`."""
+        """Inverse of :meth:`to_bytes`.
+
+        Each function is checked to be a plain SX function with JIT off before CasADi
+        deserialises it (:func:`colloc.numeric.casadi_payload.plain_function_problem`).
+
+        Raises
+        ------
+        ValueError
+            When a payload holds anything else (it was not written by colloc).
+        """
+        for field in FUNCTION_FIELDS:
+            problem = plain_function_problem(blob.get(field))
+            if problem is not None:
+                raise ValueError(f"{field}: {problem}")
+        values, jacobian, hessian = (ca.Function.deserialize(blob[f]) for f in FUNCTION_FIELDS)
         return cls(
-            ca.Function.deserialize(blob["values"]),
-            ca.Function.deserialize(blob["jacobian"]),
-            ca.Function.deserialize(blob["hessian"]),
+            values,
+            jacobian,
+            hessian,
             *(
                 np.asarray(blob[k], dtype=np.int64)
                 for k in ("jac_rows", "jac_cols", "hess_rows", "hess_cols")

@@ -53,6 +53,23 @@ class SolverStalled(RuntimeError):
         self.iterations = iterations
 
 
+class SolverCrashed(RuntimeError):
+    """The solver's process ended without a result (killed by a signal or a native crash).
+
+    Attributes
+    ----------
+    exitcode : int or None
+        The child's exit code (negative: the signal that ended it).
+    """
+
+    def __init__(self, exitcode: int | None) -> None:
+        super().__init__(
+            f"the solver process ended without a result (exit code {exitcode}: it crashed, "
+            "e.g. in the linear solver); this process is unharmed"
+        )
+        self.exitcode = exitcode
+
+
 def watch_available() -> bool:
     """Whether solves can run in a watched child here (``fork`` exists; not a daemon).
 
@@ -113,10 +130,7 @@ def run_watched(
                 kind, payload = parent_end.recv()
             except EOFError:
                 child.join(timeout=5)
-                raise RuntimeError(
-                    f"the solver process ended without a result (exit code {child.exitcode}: "
-                    "it crashed, e.g. in the linear solver); this process is unharmed"
-                ) from None
+                raise SolverCrashed(child.exitcode) from None
             if kind == "row":
                 iterations += 1
                 slowest = max(slowest, waited)
