@@ -243,3 +243,22 @@ def test_a_cluster_of_no_workers_is_refused_before_any_work(value, capsys):
     assert f"argument --workers: expected an integer >= 1, found '{value}'" in (
         capsys.readouterr().err
     )
+
+
+def test_a_batch_into_a_database_of_other_tables_is_refused_before_any_work(tmp_path, capsys):
+    db_file = tmp_path / "clinic.db"
+    with sqlite3.connect(db_file) as connection:
+        connection.execute("CREATE TABLE patients (id INTEGER)")
+    spec = tmp_path / "batch.yaml"
+    spec.write_text(
+        f"db: sqlite:///{db_file}\nworkers: 1\nruns:\n  - kind: pendulum\n    duration: 5\n"
+    )
+    assert main(["batch", str(spec)]) == 2
+    err = capsys.readouterr().err
+    assert "holds other tables (patients)" in err and "--db-allow-other-tables" in err
+    with sqlite3.connect(db_file) as connection:
+        names = [r[0] for r in connection.execute("SELECT name FROM sqlite_master")]
+    assert names == ["patients"]
+    assert main(["batch", str(spec), "--db-allow-other-tables"]) == 0, capsys.readouterr().err
+    with RunStore(f"sqlite:///{db_file}") as store:
+        assert len(store) == 1

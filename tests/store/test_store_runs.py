@@ -9,6 +9,7 @@ import numpy as np
 import pandas as pd
 import pytest
 from sqlalchemy import create_engine, false, text
+from sqlalchemy import inspect as sqlalchemy_inspect
 
 import colloc.store.queries as queries_module
 import colloc.store.runs as runs_module
@@ -22,6 +23,7 @@ from colloc.store import (
     StoreURLError,
     StoreWriteError,
 )
+from colloc.store.errors import ForeignDatabaseError, StoreDamagedError
 
 
 def make_record(run_id: str = "run-a", seed: int = 0, **changes) -> RunRecord:
@@ -436,3 +438,52 @@ def test_a_run_read_without_its_arrays_has_the_rest_exactly(store):
     assert light.arrays == {}
     assert light.parameters == record.parameters and light.settings == record.settings
     assert store.get("run-a").arrays.keys() == record.arrays.keys()  # still there
+
+
+@pytest.mark.parametrize("backend", ["sqlite", "postgresql"])
+def test_a_database_of_other_tables_is_refused_unchanged_unless_allowed(request, db_path, backend):
+    url = f"sqlite:///{db_path}" if backend == "sqlite" else request.getfixturevalue("postgres_url")
+    engine = create_engine(url)
+    with engine.begin() as connection:
+        connection.execute(text("CREATE TABLE patients (id INTEGER, name TEXT)"))
+
+    def tables():
+        engine.dispose()
+        with engine.connect() as connection:
+            names = sqlalchemy_inspect(connection).get_table_names()
+        return sorted(names)
+
+    with pytest.raises(ForeignDatabaseError, match=r"holds other tables \(patients\)"):
+        RunStore(url)
+    assert tables() == ["patients"]  # nothing was added
+    with RunStore(url, allow_other_tables=True) as allowed:
+        allowed.add(make_record())
+    assert "colloc_runs" in tables() and "patients" in tables()
+    with RunStore(url) as reopened:  # colloc's runs are there now: no need to say it again
+        assert reopened.get("run-a").run_id == "run-a"
+    engine.dispose()
+
+
+def _damage(path, page: int, size: int = 4096) -> None:
+    with open(path, "r+b") as fh:
+        fh.seek(page * size)
+        fh.write(b"\xab" * size)
+
+
+@pytest.mark.parametrize("page", [0, 1, 2])
+def test_a_damaged_file_is_named_with_what_to_do(db_path, page):
+    with RunStore(f"sqlite:///{db_path}") as store:
+        for i in range(3):
+            store.add(make_record(f"run-{i}", seed=i))
+    before = db_path.read_bytes()
+    _damage(db_path, page)
+    damaged = db_path.read_bytes()
+    assert damaged != before
+    with pytest.raises(
+        StoreDamagedError, match=rf"database file '{db_path}' is damaged.*\.recover"
+    ):
+        with RunStore(f"sqlite:///{db_path}", create=False) as store:
+            store.list()
+            for i in range(3):
+                store.get(f"run-{i}")
+    assert db_path.read_bytes() == damaged  # nothing was written

@@ -81,6 +81,7 @@ def run_batch(
     scheduler: str | None = None,
     on_start: Callable[[int, int], None] | None = None,
     on_result: Callable[[TaskResult], None] | None = None,
+    allow_other_tables: bool = False,
 ) -> BatchOutcome:
     """Run a batch of tasks on Dask and record it in the results store.
 
@@ -102,6 +103,9 @@ def run_batch(
         ``on_start(to_run, skipped)`` once the skipped entries are known.
     on_result : callable, optional
         Called with each :class:`TaskResult` as it arrives (skipped entries first).
+    allow_other_tables : bool, optional
+        Let colloc's tables go into a database that holds other tables
+        (:class:`colloc.store.RunStore`).
 
     Returns
     -------
@@ -119,7 +123,7 @@ def run_batch(
     """
     _check_tasks(tasks)
     say = on_result or (lambda result: None)
-    store = RunStore(url)
+    store = RunStore(url, allow_other_tables=allow_other_tables)
     try:
         store.check_writable()
         batch_id = batch_id_for(tasks)

@@ -79,6 +79,12 @@ def _path(text: str) -> Path:
     return Path(text)
 
 
+_ALLOW_OTHER_TABLES_HELP = (
+    "let colloc's tables go into a database that already holds other applications' tables "
+    "(refused by default)"
+)
+
+
 def _output_problems(json_path: Path | None, out_dir: Path | None) -> list[str]:
     """What stops ``--json`` or ``--out`` from being written, found before any work (a file
     is created and removed where each will go)."""
@@ -216,6 +222,7 @@ def _identify_parser(gs: Any, default_url: str) -> None:
     idp.add_argument("--seed", type=_positive_int, default=d.seed, help="random seed")
     idp.add_argument("--db", default=default_url, help="results database URL")
     idp.add_argument("--no-store", action="store_true", help="do not store the run")
+    idp.add_argument("--db-allow-other-tables", action="store_true", help=_ALLOW_OTHER_TABLES_HELP)
     idp.add_argument("--out", type=_path, default=Path("gait-identification"), help="figures")
     idp.add_argument("--no-plots", action="store_true", help="do not draw figures")
     idp.add_argument("--json", type=_path, default=None, help="write a summary here")
@@ -228,7 +235,7 @@ def _open_store(args: argparse.Namespace) -> Any:
         return None
     from colloc.store import RunStore  # SQLAlchemy and pandas: only when storing
 
-    store = RunStore(args.db)
+    store = RunStore(args.db, allow_other_tables=args.db_allow_other_tables)
     store.check_writable()  # a read-only or locked database fails now, not after the work
     return store
 
@@ -373,6 +380,7 @@ def build_parser() -> argparse.ArgumentParser:
     )
     p.add_argument("--db", default=DEFAULT_URL, help="results database URL (default %(default)s)")
     p.add_argument("--no-store", action="store_true", help="do not store the run in the database")
+    p.add_argument("--db-allow-other-tables", action="store_true", help=_ALLOW_OTHER_TABLES_HELP)
     p.add_argument(
         "--out", type=_path, default=Path("results"), help="directory for plots and animation"
     )
@@ -514,6 +522,7 @@ def _batch_parser(sub: Any, default_url: str) -> None:
     )
     run = bs.add_parser("run", help="run a batch file", parents=[db])
     run.add_argument("spec", type=_path, help="the batch file (YAML)")
+    run.add_argument("--db-allow-other-tables", action="store_true", help=_ALLOW_OTHER_TABLES_HELP)
     run.add_argument(
         "--check", action="store_true", help="check every entry and stop, running nothing"
     )

@@ -279,6 +279,7 @@ def _execute(
             scheduler=args.scheduler,
             on_start=progress.start,
             on_result=progress.result,
+            allow_other_tables=args.db_allow_other_tables,
         )
     finally:
         progress.close()

@@ -178,7 +178,8 @@ class BuildCache:
         return sorted(p for p in self.directory.glob("*.json") if len(p.stem) == 64)
 
     def clear(self) -> int:
-        """Delete every entry (only colloc's: files named by a key).
+        """Delete every entry (only colloc's: files named by a key) and the signing secret, so
+        that entries written under the old secret are never trusted again.
 
         Returns
         -------
@@ -189,6 +190,7 @@ class BuildCache:
         for path in self.entries():
             path.unlink(missing_ok=True)
             count += 1
+        (self.directory / KEY_FILE).unlink(missing_ok=True)
         return count
 
 

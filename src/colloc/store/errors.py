@@ -22,6 +22,14 @@ class StoreURLError(StoreError):
     """The database URL cannot be parsed, has no driver, or the database cannot be opened."""
 
 
+class StoreDamagedError(StoreURLError):
+    """The database file is damaged (SQLite reports a malformed image or no database)."""
+
+
+class ForeignDatabaseError(StoreURLError):
+    """The database holds other applications' tables and no colloc runs; nothing was added."""
+
+
 class StoreWriteError(StoreError):
     """The database refused a write (read-only, locked past the busy timeout, damaged)."""
 

@@ -22,7 +22,13 @@ from sqlalchemy.exc import ArgumentError, IntegrityError, NoSuchModuleError, SQL
 
 from colloc.store import schema
 from colloc.store.batches import BatchLog
-from colloc.store.errors import DuplicateRunError, StoreURLError, StoreWriteError
+from colloc.store.errors import (
+    DuplicateRunError,
+    ForeignDatabaseError,
+    StoreDamagedError,
+    StoreURLError,
+    StoreWriteError,
+)
 from colloc.store.export import EXPORTERS, export_record
 from colloc.store.queries import delete_run, insert_run, resolve_run_id
 from colloc.store.record import (
@@ -72,6 +78,35 @@ def _sqlite_setup(busy_timeout: float) -> Any:
     return on_connect
 
 
+#: What SQLite says of a file it cannot read as a database.
+_DAMAGED_MESSAGES = ("malformed", "file is not a database", "disk image")
+
+
+def _damage_translator(url: str, database: str | None) -> Any:
+    """An engine ``handle_error`` hook: a damaged SQLite file is named, with what to do."""
+
+    def on_error(context: Any) -> None:
+        original = context.original_exception
+        if not isinstance(original, sqlite3.DatabaseError) or isinstance(
+            original, sqlite3.OperationalError
+        ):
+            return  # locks, missing tables and the like keep their own messages
+        if not any(text in str(original) for text in _DAMAGED_MESSAGES):
+            return
+        where = f"file {database!r}" if database else repr(url)
+        recover = (
+            f"; `sqlite3 {database} .recover | sqlite3 recovered.db` saves what is readable"
+            if database
+            else ""
+        )
+        raise StoreDamagedError(
+            f"url: the database {where} is damaged ({original}); nothing was changed: "
+            f"restore it from a copy{recover}, or pass another --db"
+        ) from original
+
+    return on_error
+
+
 class RunStore:
     """A database of identification runs.
 
@@ -84,6 +119,10 @@ class RunStore:
         Create the database file and colloc's tables when missing (default). False (for
         reading, or deleting): refuse a missing SQLite file or a database without colloc's
         tables, changing nothing.
+    allow_other_tables : bool, optional
+        Add colloc's tables to a database that already holds other applications' tables
+        (default False: such a database is refused, unchanged, unless it already holds
+        colloc's runs).
     busy_timeout : float, optional
         Seconds a write waits for another writer's lock on an SQLite file before it fails
         (default, None: :data:`BUSY_TIMEOUT_SECONDS`).
@@ -94,6 +133,11 @@ class RunStore:
         If ``url`` is not a URL, names a backend without an installed driver, or the
         database cannot be opened or created (or, with ``create=False``, does not exist or
         holds no colloc tables), or ``busy_timeout`` is not a finite number >= 0.
+    ForeignDatabaseError
+        If the database holds other tables and no colloc runs, and ``allow_other_tables``
+        is False.
+    StoreDamagedError
+        If the SQLite file is damaged (here or in any later call).
 
     Examples
     --------
@@ -107,6 +151,7 @@ class RunStore:
         url: str = DEFAULT_URL,
         *,
         create: bool = True,
+        allow_other_tables: bool = False,
         busy_timeout: float | None = None,
     ) -> None:
         if not isinstance(url, str):
@@ -137,8 +182,10 @@ class RunStore:
                 raise
         self.busy_timeout = float(busy_timeout)
         event.listen(self._engine, "connect", _sqlite_setup(self.busy_timeout))
+        event.listen(self._engine, "handle_error", _damage_translator(url, parsed.database))
         self.url = url
         self.create = create
+        self.allow_other_tables = bool(allow_other_tables)
         try:
             self._prepare_schema()
         except SQLAlchemyError as error:
@@ -154,6 +201,16 @@ class RunStore:
 
     def _prepare_schema(self) -> None:
         if self.create:
+            found = set(inspect(self._engine).get_table_names())
+            other = sorted(found - set(schema.metadata.tables))
+            if other and not self.allow_other_tables and not set(schema.RUN_TABLES) <= found:
+                shown = ", ".join(other[:8]) + (", ..." if len(other) > 8 else "")
+                raise ForeignDatabaseError(
+                    f"url: the database at {self.url!r} holds other tables ({shown}) and no "
+                    "colloc runs; nothing was added: pass a database of its own, or say that "
+                    "colloc's tables may go beside them (--db-allow-other-tables; "
+                    "RunStore(..., allow_other_tables=True))"
+                )
             schema.metadata.create_all(self._engine)
         else:
             found = set(inspect(self._engine).get_table_names())
