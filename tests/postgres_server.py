@@ -72,8 +72,8 @@ def reap_leftovers(root: Path | None = None) -> list[Path]:
             owner = int((folder / _OWNER).read_text())
         except (OSError, ValueError):
             owner = None
-        if owner is not None and owner != os.getpid() and _alive(owner):
-            continue  # another run's live server
+        if owner is not None and (owner == os.getpid() or _alive(owner)):
+            continue  # this run's server, or another live run's
         if owner is None and not (folder / "data").exists():
             continue  # a run between creating the folder and writing its owner file
         stop_server(folder)

@@ -227,8 +227,11 @@ def test_ctrl_c_cancels_the_batch_cleanly_and_keeps_the_finished_runs(tmp_path):
         assert 2 <= batch.done < 40 and batch.cancelled == 40 - batch.done - batch.failed
         entries = store.batches.get(batch.batch_id)["entries"]
         done_ids = set(entries.loc[entries["status"] == "done", "run_id"])
-        assert done_ids <= set(store.list()["run_id"])  # every finished run is stored whole
-        for run_id in store.list()["run_id"]:
+        stored = set(store.list()["run_id"])
+        assert done_ids <= stored  # every finished run is stored whole
+        assert stored <= done_ids  # and every stored run is done: a re-run skips it
+        assert len(store.batches.done(list(entries["entry_key"]))) == len(stored)
+        for run_id in stored:
             assert store.get(run_id).arrays["times"].shape == (1001,)
 
 
@@ -262,3 +265,42 @@ def test_a_batch_into_a_database_of_other_tables_is_refused_before_any_work(tmp_
     assert main(["batch", str(spec), "--db-allow-other-tables"]) == 0, capsys.readouterr().err
     with RunStore(f"sqlite:///{db_file}") as store:
         assert len(store) == 1
+
+
+def test_a_killed_batch_is_marked_dead_by_the_next_and_its_stored_runs_are_done(tmp_path):
+    import subprocess
+    import sys
+
+    db_file = tmp_path / "runs.db"
+    spec = tmp_path / "batch.yaml"
+    spec.write_text(
+        f"db: sqlite:///{db_file}\nworkers: 1\nruns:\n  - kind: pendulum\n    duration: 5\n"
+        "    seed: {range: [0, 40]}\n"
+    )
+    colloc = Path(sys.executable).with_name("colloc")
+    process = subprocess.Popen(
+        [str(colloc), "batch", str(spec)],
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.DEVNULL,
+        cwd=tmp_path,
+        start_new_session=True,
+    )
+    deadline = time.monotonic() + 120
+    stored = 0
+    while time.monotonic() < deadline and stored < 1:
+        time.sleep(0.5)
+        if db_file.exists():
+            with contextlib.suppress(sqlite3.Error), sqlite3.connect(db_file) as connection:
+                stored = connection.execute("SELECT COUNT(*) FROM colloc_runs").fetchone()[0]
+    os.killpg(process.pid, signal.SIGKILL)  # the batch and its Dask workers, as a kill -9 would
+    process.wait(timeout=30)
+    with RunStore(f"sqlite:///{db_file}") as store:
+        (batch,) = store.batches.list().itertuples()
+        assert batch.status == "running"  # nothing could record its end
+        assert store.batches.mark_dead() == [batch.batch_id]
+        (batch,) = store.batches.list().itertuples()
+        assert batch.status == "dead" and batch.pending == 0
+        entries = store.batches.get(batch.batch_id)["entries"]
+        done_ids = set(entries.loc[entries["status"] == "done", "run_id"])
+        assert set(store.list()["run_id"]) == done_ids and len(done_ids) >= 1
+        assert store.batches.mark_dead() == []  # once

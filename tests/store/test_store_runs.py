@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import os
 import sqlite3
 from datetime import UTC, datetime, timedelta, timezone
 
@@ -487,3 +488,68 @@ def test_a_damaged_file_is_named_with_what_to_do(db_path, page):
             for i in range(3):
                 store.get(f"run-{i}")
     assert db_path.read_bytes() == damaged  # nothing was written
+
+
+def _owned_by(store, batch_id, owner):
+    """Record ``owner`` as the process running ``batch_id`` (as another colloc would)."""
+    from colloc.store import schema
+
+    engine = create_engine(store.url)
+    with engine.begin() as connection:
+        connection.execute(
+            schema.batch_owners.update()
+            .where(schema.batch_owners.c.batch_id == batch_id)
+            .values(pid=owner.pid, process_start=owner.process_start, host=owner.host)
+        )
+    engine.dispose()
+
+
+def test_a_stored_run_marks_its_entry_in_the_same_transaction(store, monkeypatch):
+    entries = [{"kind": "pendulum", "entry_key": "k", "settings": {}}]
+    store.batches.start("b", {}, entries)
+    store.add(make_record("run-0"), batch_entry=("b", 0, "done"))
+    assert list(store.batches.get("b")["entries"]["status"]) == ["done"]
+    store.batches.finish("b", "cancelled")  # a Ctrl-C after the run was stored
+    assert list(store.batches.get("b")["entries"]["status"]) == ["done"]
+    assert store.batches.done(["k"]) == {"k": {"run_id": "run-0", "output": None}}
+
+    store.batches.start("c", {}, [{"kind": "pendulum", "entry_key": "k2", "settings": {}}])
+    monkeypatch.setattr(
+        runs_module, "set_entry", lambda *a, **k: (_ for _ in ()).throw(OSError("disk"))
+    )
+    with pytest.raises(OSError, match="disk"):
+        store.add(make_record("run-1", seed=1), batch_entry=("c", 0, "done"))
+    assert "run-1" not in set(store.list()["run_id"])  # neither the run nor the mark
+    assert list(store.batches.get("c")["entries"]["status"]) == ["pending"]
+
+
+def test_a_batch_whose_process_is_gone_is_marked_dead_and_a_live_one_is_not_run_twice(store):
+    import subprocess
+
+    from colloc.store.owner import ProcessOwner
+
+    entries = [{"kind": "pendulum", "entry_key": f"k{i}", "settings": {}} for i in range(2)]
+    gone = subprocess.Popen(["true"])
+    gone.wait()
+    store.batches.start("dead-one", {}, entries)
+    store.batches.record("dead-one", 0, "done")
+    me = ProcessOwner.this_process()
+    _owned_by(store, "dead-one", ProcessOwner(me.host, gone.pid, None))
+    store.batches.start("other", {}, [])  # any batch started marks the dead
+    got = store.batches.get("dead-one")
+    assert got["status"] == "dead"
+    assert list(got["entries"]["status"]) == ["done", "cancelled"]
+
+    with subprocess.Popen(["sleep", "30"]) as live:
+        try:
+            store.batches.start("live-one", {}, entries)
+            _owned_by(store, "live-one", ProcessOwner(me.host, live.pid, None))
+            assert store.batches.mark_dead() == []
+            with pytest.raises(RecordError, match=rf"running now in process {live.pid}"):
+                store.batches.start("live-one", {}, entries)
+            _owned_by(store, "live-one", ProcessOwner("elsewhere.example", live.pid, None))
+            assert store.batches.mark_dead() == []  # another host: nothing here can tell
+        finally:
+            live.kill()
+    reused = ProcessOwner(me.host, os.getpid(), "1")  # this pid, but another start time
+    assert reused.alive() is False and ProcessOwner.this_process().alive() is True

@@ -193,6 +193,7 @@ def _run_on_dask(
                 task,
                 url,
                 *needed,
+                batch_id=outcome.batch_id,
                 key=f"colloc-{outcome.batch_id[:12]}-{task.position}",
                 pure=False,
             )

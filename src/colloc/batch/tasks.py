@@ -137,7 +137,9 @@ def task_key(kind: str, settings: Mapping[str, Any], inputs: Mapping[str, Any]) 
     return hashlib.sha256(text.encode()).hexdigest()
 
 
-def run_task(task: Task, url: str | None, *needed: TaskResult) -> TaskResult:
+def run_task(
+    task: Task, url: str | None, *needed: TaskResult, batch_id: str | None = None
+) -> TaskResult:
     """Run one task: compute, store (when ``url``), write outputs; never raise for the run.
 
     Parameters
@@ -148,6 +150,9 @@ def run_task(task: Task, url: str | None, *needed: TaskResult) -> TaskResult:
     *needed : TaskResult
         Results of the tasks in ``task.after`` (Dask passes them in once they are done); a
         failed one fails this task without running it.
+    batch_id : str, optional
+        The batch this task is an entry of: a stored run marks its entry in the same
+        transaction (:meth:`colloc.store.RunStore.add`).
 
     Returns
     -------
@@ -163,7 +168,7 @@ def run_task(task: Task, url: str | None, *needed: TaskResult) -> TaskResult:
                 error=f"entry {before.position}, which this one needs, failed: {before.error}",
             )
     try:
-        result = RUNNERS[task.kind](task, url)
+        result = RUNNERS[task.kind](task, url, batch_id)
     except Exception as error:  # noqa: BLE001 - a failed run is recorded, the batch goes on
         frame = traceback.extract_tb(error.__traceback__)[-1:]
         place = f" (at {frame[0].filename}:{frame[0].lineno})" if frame else ""
@@ -187,16 +192,21 @@ def run_task(task: Task, url: str | None, *needed: TaskResult) -> TaskResult:
     )
 
 
-def _store(url: str | None, record: Any) -> None:
+def _store(url: str | None, record: Any, entry: tuple[str, int, str] | None) -> None:
+    """Store the run; with ``entry`` (batch id, position, status), mark the entry with it."""
     if url is None:
         return
     from colloc.store import RunStore
 
     with RunStore(url) as store:
-        store.add(record, replace=True)
+        store.add(record, replace=True, batch_entry=entry)
 
 
-def _run_pendulum(task: Task, url: str | None) -> TaskResult:
+def _entry(task: Task, batch_id: str | None, success: bool) -> tuple[str, int, str] | None:
+    return None if batch_id is None else (batch_id, task.position, "done" if success else "failed")
+
+
+def _run_pendulum(task: Task, url: str | None, batch_id: str | None) -> TaskResult:
     from colloc.identify.pendulum import run_pendulum
     from colloc.identify.pendulum_outputs import (
         pendulum_record,
@@ -209,14 +219,14 @@ def _run_pendulum(task: Task, url: str | None) -> TaskResult:
 
     run = run_pendulum(task.settings)
     run_id = pendulum_run_id(run)
-    _store(url, pendulum_record(run, run_id))
+    success = bool(run.solution.stats["success"])
+    _store(url, pendulum_record(run, run_id), _entry(task, batch_id, success))
     if task.out is not None and task.plot:
         save_pendulum_plots(run, task.out)
     if task.out is not None and task.animate:
         save_pendulum_animation(run, task.out / "pendulum.gif")
     if task.json is not None:
         write_json_atomic(pendulum_summary(run, run_id), task.json)
-    success = bool(run.solution.stats["success"])
     written = task.out is not None and (task.plot or task.animate)
     return TaskResult(
         task.position,
@@ -229,19 +239,19 @@ def _run_pendulum(task: Task, url: str | None) -> TaskResult:
     )
 
 
-def _run_gait_identify(task: Task, url: str | None) -> TaskResult:
+def _run_gait_identify(task: Task, url: str | None, batch_id: str | None) -> TaskResult:
     from colloc.identify.gait import identify_gait
     from colloc.identify.gait_outputs import gait_record, gait_run_id, gait_summary, save_gait_plots
     from colloc.identify.summaries import write_json_atomic
 
     run = identify_gait(task.settings)
     run_id = gait_run_id(run)
-    _store(url, gait_record(run, run_id))
+    success = bool(run.solver["success"])
+    _store(url, gait_record(run, run_id), _entry(task, batch_id, success))
     if task.out is not None and task.plot:
         save_gait_plots(run, task.out)
     if task.json is not None:
         write_json_atomic(gait_summary(run, run_id), task.json)
-    success = bool(run.solver["success"])
     return TaskResult(
         task.position,
         "done" if success else "failed",
@@ -252,22 +262,31 @@ def _run_gait_identify(task: Task, url: str | None) -> TaskResult:
     )
 
 
-def _run_gait_simulate(task: Task, url: str | None) -> TaskResult:
+def _run_gait_simulate(task: Task, url: str | None, batch_id: str | None) -> TaskResult:
     from colloc.gait.workflow import simulate_trial
 
     result = simulate_trial(task.settings)
     folder = os.fspath(task.settings.out)
     if result.fell:
-        return TaskResult(
+        outcome = TaskResult(
             task.position,
             "failed",
             output=folder,
             error=f"the walker fell ({result.summary['message']}); the trial in {folder} is short",
         )
-    return TaskResult(task.position, "done", output=folder, notes=tuple(result.notes))
+    else:
+        outcome = TaskResult(task.position, "done", output=folder, notes=tuple(result.notes))
+    if url is not None and batch_id is not None:  # the folder is whole: the entry is done
+        from colloc.store import RunStore
+
+        with RunStore(url) as store:
+            store.batches.record(
+                batch_id, task.position, outcome.status, output=folder, error=outcome.error
+            )
+    return outcome
 
 
-RUNNERS: dict[str, Callable[[Task, str | None], TaskResult]] = {
+RUNNERS: dict[str, Callable[[Task, str | None, str | None], TaskResult]] = {
     "pendulum": _run_pendulum,
     "gait-identify": _run_gait_identify,
     "gait-simulate": _run_gait_simulate,

@@ -3,7 +3,12 @@
 A batch row holds the (expanded) specification; one entry row per run it asked for holds the
 entry's kind, its settings, a key that says whether two entries would compute the same run,
 and its fate: ``pending``, ``done`` (with the run id and/or output folder), ``failed`` (with
-the error), ``skipped`` (done by an earlier batch) or ``cancelled``.
+the error), ``skipped`` (done by an earlier batch) or ``cancelled``. A run stored by a worker
+is marked ``done`` (or ``failed``) in the same transaction that stores it
+(:meth:`colloc.store.RunStore.add` with ``batch_entry``), so whatever becomes of the batch
+afterwards (Ctrl-C, a killed parent) a stored run is never computed again. The process that
+runs a batch is recorded; a batch still ``running`` whose process is gone is marked ``dead``
+by the next batch started against the database.
 """
 
 from __future__ import annotations
@@ -16,11 +21,12 @@ from pathlib import Path
 from typing import Any
 
 import pandas as pd
-from sqlalchemy import Engine, insert, inspect, select, update
+from sqlalchemy import Connection, Engine, delete, insert, inspect, select, update
 
 from colloc.store import schema
 from colloc.store.errors import RecordError, RunNotFoundError
 from colloc.store.ids import canonical_json
+from colloc.store.owner import ProcessOwner
 from colloc.store.queries import resolve_id
 from colloc.store.record import utc
 
@@ -28,7 +34,9 @@ from colloc.store.record import utc
 ENTRY_STATUSES = ("pending", "done", "failed", "skipped", "cancelled")
 
 #: What a batch can be.
-BATCH_STATUSES = ("running", "finished", "cancelled")
+BATCH_STATUSES = ("running", "finished", "cancelled", "dead")
+
+_BATCH_TABLES = (schema.batches, schema.batch_entries, schema.batch_owners)
 
 ENTRY_COLUMNS = (
     "position",
@@ -59,10 +67,63 @@ class BatchLog:
         found = set(inspect(self._engine).get_table_names())
         return {schema.batches.name, schema.batch_entries.name} <= found
 
+    def mark_dead(self) -> builtins.list[str]:
+        """Mark ``dead`` every running batch whose process is gone (on this host).
+
+        Its pending entries become ``cancelled``; entries whose run was stored are ``done``
+        already. A batch run from another host, or recorded by a colloc that did not name
+        its process, is left as it is: nothing here can tell.
+
+        Returns
+        -------
+        list of str
+            The ids of the batches marked.
+        """
+        if not self._has_tables():
+            return []
+        schema.metadata.create_all(self._engine, tables=list(_BATCH_TABLES))
+        owners = schema.batch_owners
+        with self._engine.connect() as connection:
+            rows = connection.execute(
+                select(owners)
+                .join(schema.batches, schema.batches.c.batch_id == owners.c.batch_id)
+                .where(schema.batches.c.status == "running")
+            ).all()
+        dead = [
+            row.batch_id
+            for row in rows
+            if ProcessOwner(row.host, row.pid, row.process_start).alive() is False
+        ]
+        for batch_id in dead:
+            self.finish(batch_id, "dead")
+        return dead
+
+    def owner(self, batch_id: str) -> ProcessOwner | None:
+        """The process recorded as running ``batch_id`` (None when none is recorded).
+
+        Parameters
+        ----------
+        batch_id : str
+
+        Returns
+        -------
+        ProcessOwner or None
+        """
+        if not self._has_tables() or schema.batch_owners.name not in set(
+            inspect(self._engine).get_table_names()
+        ):
+            return None
+        with self._engine.connect() as connection:
+            row = connection.execute(
+                select(schema.batch_owners).where(schema.batch_owners.c.batch_id == batch_id)
+            ).first()
+        return None if row is None else ProcessOwner(row.host, row.pid, row.process_start)
+
     def start(
         self, batch_id: str, spec: Mapping[str, Any], entries: Sequence[Mapping[str, Any]]
     ) -> None:
-        """Record a batch as running; a batch with this id already recorded is taken up again.
+        """Record a batch as running in this process; a batch with this id already recorded
+        is taken up again (after :meth:`mark_dead`).
 
         Parameters
         ----------
@@ -77,11 +138,14 @@ class BatchLog:
         Raises
         ------
         RecordError
-            If ``batch_id`` is empty, or a recorded batch with this id has other entries.
+            If ``batch_id`` is empty, a recorded batch with this id has other entries, or it
+            is running now in another live process of this host.
         """
         if not isinstance(batch_id, str) or not batch_id:
             raise RecordError([f"batch_id: expected a non-empty str, found {batch_id!r}"], "batch")
-        schema.metadata.create_all(self._engine, tables=[schema.batches, schema.batch_entries])
+        schema.metadata.create_all(self._engine, tables=list(_BATCH_TABLES))
+        self.mark_dead()
+        me = ProcessOwner.this_process()
         now = datetime.now(UTC)
         rows = [
             {
@@ -105,6 +169,8 @@ class BatchLog:
                     raise RecordError(
                         [f"batch_id: batch {batch_id!r} is recorded with other entries"], "batch"
                     )
+                _refuse_if_running_elsewhere(connection, batch_id, me)
+                _set_owner(connection, batch_id, me, now)
                 connection.execute(
                     update(schema.batches)
                     .where(schema.batches.c.batch_id == batch_id)
@@ -127,6 +193,7 @@ class BatchLog:
             )
             if rows:
                 connection.execute(insert(schema.batch_entries), rows)
+            _set_owner(connection, batch_id, me, now)
 
     def record(
         self,
@@ -163,11 +230,15 @@ class BatchLog:
                 [f"status: expected one of {list(ENTRY_STATUSES)}, found {status!r}"], "entry"
             )
         with self._engine.begin() as connection:
-            connection.execute(
-                update(schema.batch_entries)
-                .where(schema.batch_entries.c.batch_id == batch_id)
-                .where(schema.batch_entries.c.position == position)
-                .values(status=status, run_id=run_id, output=output, error=error, seconds=seconds)
+            set_entry(
+                connection,
+                batch_id,
+                position,
+                status,
+                run_id=run_id,
+                output=output,
+                error=error,
+                seconds=seconds,
             )
 
     def finish(self, batch_id: str, status: str = "finished") -> None:
@@ -177,7 +248,7 @@ class BatchLog:
         ----------
         batch_id : str
         status : str
-            ``"finished"`` or ``"cancelled"``.
+            ``"finished"``, ``"cancelled"`` or ``"dead"``.
         """
         if status not in BATCH_STATUSES:
             raise RecordError(
@@ -338,3 +409,83 @@ class BatchLog:
         """
         entries = self.get(batch_id)["entries"]
         return [r for r in entries["run_id"] if isinstance(r, str)]
+
+
+def set_entry(
+    connection: Connection,
+    batch_id: str,
+    position: int,
+    status: str,
+    *,
+    run_id: str | None = None,
+    output: str | None = None,
+    error: str | None = None,
+    seconds: float | None = None,
+) -> None:
+    """Record an entry's fate inside the caller's transaction (a worker storing its run).
+
+    Parameters
+    ----------
+    connection : sqlalchemy.Connection
+        In a transaction.
+    batch_id : str
+    position : int
+    status : str
+        One of :data:`ENTRY_STATUSES`.
+    run_id, output, error : str or None
+    seconds : float or None
+        None keeps what is recorded.
+
+    Raises
+    ------
+    RecordError
+        If ``status`` is not one of :data:`ENTRY_STATUSES`.
+    """
+    if status not in ENTRY_STATUSES:
+        raise RecordError(
+            [f"status: expected one of {list(ENTRY_STATUSES)}, found {status!r}"], "entry"
+        )
+    values: dict[str, Any] = {"status": status, "run_id": run_id, "output": output, "error": error}
+    if seconds is not None:
+        values["seconds"] = seconds
+    connection.execute(
+        update(schema.batch_entries)
+        .where(schema.batch_entries.c.batch_id == batch_id)
+        .where(schema.batch_entries.c.position == position)
+        .values(**values)
+    )
+
+
+def _set_owner(connection: Connection, batch_id: str, owner: ProcessOwner, now: datetime) -> None:
+    connection.execute(
+        delete(schema.batch_owners).where(schema.batch_owners.c.batch_id == batch_id)
+    )
+    connection.execute(
+        insert(schema.batch_owners).values(
+            batch_id=batch_id,
+            host=owner.host,
+            pid=owner.pid,
+            process_start=owner.process_start,
+            started=now,
+        )
+    )
+
+
+def _refuse_if_running_elsewhere(connection: Connection, batch_id: str, me: ProcessOwner) -> None:
+    """A batch that is running in another live process of this host is not taken up twice."""
+    row = connection.execute(
+        select(schema.batches.c.status, schema.batch_owners)
+        .join(schema.batch_owners, schema.batch_owners.c.batch_id == schema.batches.c.batch_id)
+        .where(schema.batches.c.batch_id == batch_id)
+    ).first()
+    if row is None or row.status != "running":
+        return
+    owner = ProcessOwner(row.host, row.pid, row.process_start)
+    if owner != me and owner.alive():
+        raise RecordError(
+            [
+                f"batch_id: batch {batch_id[:12]} is running now in process {owner.pid} on "
+                "this machine; wait for it to end, or stop it, before running it again"
+            ],
+            "batch",
+        )

@@ -21,7 +21,7 @@ from sqlalchemy.engine import make_url
 from sqlalchemy.exc import ArgumentError, IntegrityError, NoSuchModuleError, SQLAlchemyError
 
 from colloc.store import schema
-from colloc.store.batches import BatchLog
+from colloc.store.batches import BatchLog, set_entry
 from colloc.store.errors import (
     DuplicateRunError,
     ForeignDatabaseError,
@@ -273,7 +273,13 @@ class RunStore:
 
     # ----------------------------------------------------------------------------- writing
 
-    def add(self, record: RunRecord, *, replace: bool = False) -> None:
+    def add(
+        self,
+        record: RunRecord,
+        *,
+        replace: bool = False,
+        batch_entry: tuple[str, int, str] | None = None,
+    ) -> None:
         """Store a run, all of it or nothing.
 
         Parameters
@@ -282,6 +288,10 @@ class RunStore:
             The run. A ``created`` of ``None`` is set to the current UTC time.
         replace : bool, optional
             Replace a stored run with the same id instead of raising.
+        batch_entry : (batch_id, position, status), optional
+            The batch entry that computed the run, recorded with ``status`` (``"done"`` or
+            ``"failed"``) and the run's id in the same transaction, so that a stored run is
+            never left looking unfinished (:mod:`colloc.store.batches`).
 
         Raises
         ------
@@ -309,6 +319,9 @@ class RunStore:
                         raise duplicate
                     delete_run(connection, record.run_id)
                 insert_run(connection, record, created)
+                if batch_entry is not None:
+                    batch_id, position, status = batch_entry
+                    set_entry(connection, batch_id, position, status, run_id=record.run_id)
         except IntegrityError as error:
             # Another process stored the same id between our check and our insert.
             raise duplicate from error

@@ -108,5 +108,22 @@ batch_entries = Table(
     Column("seconds", Double, nullable=True),
 )
 
+# Which process runs a batch, so that a re-run can tell a batch that is running from one
+# whose process was killed (SIGKILL, a lost machine). Added like the batch tables above.
+batch_owners = Table(
+    "colloc_batch_owners",
+    metadata,
+    Column(
+        "batch_id",
+        String(128),
+        ForeignKey("colloc_batches.batch_id", ondelete="CASCADE"),
+        primary_key=True,
+    ),
+    Column("host", String(255), nullable=False),
+    Column("pid", Integer, nullable=False),
+    Column("process_start", String(64), nullable=True),
+    Column("started", DateTime(timezone=True), nullable=False),
+)
+
 #: Tables a database must hold to be read as colloc's (the batch tables are optional).
 RUN_TABLES = ("colloc_schema", "colloc_runs", "colloc_parameters", "colloc_arrays")
