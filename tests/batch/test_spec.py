@@ -131,7 +131,7 @@ def test_entries_get_the_commands_own_checks_named_by_entry(tmp_path):
     assert problems[0] == f"runs[0] (pendulum, entry 0): {direct[0]}"
     assert problems[1].startswith("runs[1] (pendulum, entry 1): argument -n/--numlinks")
     assert "['no-store'] are set for the whole batch" in problems[2]
-    assert len(problems) == 3 and len(tasks) == 1
+    assert len(problems) == 3 and tasks == []  # an entry with a problem makes no task
 
 
 def test_option_names_are_exact_not_prefixes(tmp_path):
@@ -232,3 +232,130 @@ def test_an_identification_of_a_batch_made_trial_is_keyed_by_the_simulation(tmp_
         assert problems == []
         keys.append(tasks[1].key)
     assert keys[0] != keys[1]
+
+
+def _bomb(levels: int = 9) -> str:
+    """Billion laughs: each level is nine aliases of the one before."""
+    lines = ["l0: &l0 [lol, lol, lol, lol, lol, lol, lol, lol, lol]"]
+    for i in range(1, levels):
+        lines.append(f"l{i}: &l{i} [" + ", ".join([f"*l{i - 1}"] * 9) + "]")
+    return "\n".join(lines)
+
+
+@pytest.mark.parametrize(
+    ("content", "message"),
+    [
+        (_bomb() + "\nruns:\n  - kind: pendulum\n    seed: {values: *l8}\n", "alias bomb"),
+        (_bomb() + "\nruns:\n  - kind: pendulum\n    note: *l8\n", "alias bomb"),
+        ("runs: &r\n  - kind: pendulum\n    seed: *r\n", "contains itself"),
+        ("runs: " + "[" * 3000 + "]" * 3000 + "\n", "nested too deeply"),
+        ("runs: " + "[" * 80 + "]" * 80 + "\n", "nested 81 levels deep"),
+    ],
+    ids=["bomb-in-sweep", "bomb-as-value", "recursive", "deeper-than-the-parser", "deep"],
+)
+def test_an_oversized_document_is_refused_before_it_is_walked(tmp_path, content, message):
+    import time
+
+    path = tmp_path / "batch.yaml"
+    path.write_text(content)
+    started = time.perf_counter()
+    with pytest.raises(BatchSpecError, match=message) as caught:
+        read_batch_spec(path, KIND_NAMES)
+    assert str(path) in str(caught.value)
+    assert time.perf_counter() - started < 10  # the bomb hung for ever
+
+
+def test_anchors_and_aliases_of_a_normal_size_still_work(tmp_path):
+    path = tmp_path / "batch.yaml"
+    path.write_text(
+        "common: &c [0, 1]\nruns:\n  - kind: pendulum\n    seed: {values: *c}\n"
+        "  - kind: pendulum\n    numlinks: 2\n    seed: {values: *c}\n"
+    )
+    with pytest.raises(BatchSpecError, match="'common': unknown key"):
+        read_batch_spec(path, KIND_NAMES)  # the anchor's home is an unknown top key
+    path.write_text(
+        "runs:\n  - kind: pendulum\n    seed: {values: &c [0, 1]}\n"
+        "  - kind: pendulum\n    numlinks: 2\n    seed: {values: *c}\n"
+    )
+    assert len(read_batch_spec(path, KIND_NAMES).entries) == 4
+
+
+def test_combinations_are_counted_before_they_are_built():
+    import time
+
+    started = time.perf_counter()
+    with pytest.raises(
+        BatchSpecError, match=r"100000 \(seed\) x 100000 \(duration\) = 10000000000"
+    ):
+        expand_batch(
+            {
+                "runs": [
+                    {
+                        "kind": "pendulum",
+                        "seed": {"range": [0, 100_000]},
+                        "duration": {"range": [1, 100_001]},
+                    }
+                ]
+            },
+            KIND_NAMES,
+        )
+    assert time.perf_counter() - started < 5  # 54 s and a MemoryError before
+    with pytest.raises(BatchSpecError, match=r"range \[0, 10{30}\] gives more than 100000"):
+        expand_batch({"runs": [{"kind": "pendulum", "seed": {"range": [0, 10**30]}}]}, KIND_NAMES)
+
+
+def test_a_long_file_name_is_shown_cut(tmp_path):
+    name = "x" * 100_000
+    with pytest.raises(BatchSpecError) as caught:
+        read_batch_spec(tmp_path / name, KIND_NAMES)
+    message = str(caught.value)
+    assert len(message) < 600 and f"({len(str(tmp_path / name))} characters)" in message
+
+
+@pytest.mark.parametrize(
+    ("run", "message"),
+    [
+        ({"out": "r/{seed.__class__.__name__}", "seed": 1}, r"has the field \{seed.__class__"),
+        ({"out": "r/{0}", "seed": 1}, r"has the field \{0\}"),
+        ({"out": "r/{seed[0]}", "seed": 1}, r"has the field \{seed\[0\]\}"),
+    ],
+)
+def test_templates_name_plain_options_only(run, message):
+    with pytest.raises(BatchSpecError, match=message):
+        expand_batch({"runs": [{"kind": "pendulum", **run}]}, KIND_NAMES)
+    spec = expand_batch(
+        {"runs": [{"kind": "pendulum", "seed": 7, "out": "r/{seed:03d}"}]}, KIND_NAMES
+    )
+    assert spec.entries[0].options["out"] == "r/007"
+
+
+@pytest.mark.parametrize("db", ["", "   ", 5])
+def test_an_empty_db_is_refused_not_taken_as_the_working_folders(db):
+    with pytest.raises(BatchSpecError, match="db: expected a database URL string"):
+        expand_batch({"db": db, "runs": [{"kind": "pendulum"}]}, KIND_NAMES)
+
+
+def test_entries_that_are_not_runs_or_repeat_another_are_refused(tmp_path):
+    spec = expand_batch(
+        {
+            "runs": [
+                {"kind": "pendulum", "help": True},
+                {"kind": "pendulum", "duration": float("nan")},
+                {"kind": "pendulum", "duration": float("inf")},
+                {"kind": "gait-simulate", "duration": float("nan"), "out": str(tmp_path / "s")},
+                {"kind": "pendulum", "seed": 4},
+                {"kind": "pendulum", "seed": {"values": [4, 5]}},
+            ]
+        },
+        KIND_NAMES,
+    )
+    tasks, problems = build_tasks(spec.entries)
+    assert "runs[0] (pendulum, entry 0): 'help' makes no run" in problems[0]
+    assert problems[1].startswith("runs[1] (pendulum, entry 1): duration")
+    assert "found nan" in problems[1] and "found inf" in problems[2]
+    assert problems[3].startswith("runs[3] (gait-simulate, entry 3): duration")
+    assert problems[4] == (
+        "runs[5] (pendulum, entry 5): the same run as entry 4 (the same options and inputs); "
+        "remove one, or make them differ (e.g. the seed)"
+    )
+    assert len(problems) == 5 and [t.position for t in tasks] == [4, 5, 6]

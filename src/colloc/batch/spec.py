@@ -28,6 +28,7 @@ from __future__ import annotations
 
 import glob as globbing
 import itertools
+import math
 import os
 import string
 from collections.abc import Mapping
@@ -130,7 +131,7 @@ def read_batch_spec(path: str | os.PathLike[str], kinds: tuple[str, ...]) -> Bat
         sweep, a template naming no key, too many entries. Its ``partial`` holds the
         entries that did expand.
     """
-    where = f"batch file {os.fspath(path)!r}"
+    where = f"batch file {shown_path(path)}"
     try:
         text = Path(path).read_text(encoding="utf-8")
     except UnicodeDecodeError as error:
@@ -142,6 +143,25 @@ def read_batch_spec(path: str | os.PathLike[str], kinds: tuple[str, ...]) -> Bat
     except yaml.YAMLError as error:
         raise BatchSpecError([f"not valid YAML ({error})"], where) from error
     return expand_batch(raw, kinds, where)
+
+
+def shown_path(path: str | os.PathLike[str], limit: int = 120) -> str:
+    """A path as messages show it: quoted, and cut in the middle when longer than ``limit``.
+
+    Parameters
+    ----------
+    path : path-like
+    limit : int, optional
+
+    Returns
+    -------
+    str
+    """
+    text = os.fspath(path)
+    if len(text) <= limit:
+        return repr(text)
+    keep = limit // 2
+    return f"{text[:keep]!r}...{text[-keep:]!r} ({len(text)} characters)"
 
 
 def expand_batch(raw: Any, kinds: tuple[str, ...], where: str = "batch") -> BatchSpec:
@@ -177,7 +197,7 @@ def expand_batch(raw: Any, kinds: tuple[str, ...], where: str = "batch") -> Batc
         problems.append(f"runs: expected a non-empty list of runs, found {runs!r}")
         runs = []
     db = raw.get("db")
-    if db is not None and not isinstance(db, str):
+    if db is not None and (not isinstance(db, str) or not db.strip()):
         problems.append(f"db: expected a database URL string, found {db!r}")
     workers = raw.get("workers")
     if workers is not None and (
@@ -186,10 +206,7 @@ def expand_batch(raw: Any, kinds: tuple[str, ...], where: str = "batch") -> Batc
         problems.append(f"workers: expected an integer >= 1, found {workers!r}")
     entries: list[Entry] = []
     for source, run in enumerate(runs):
-        for options in _expand_run(run, source, kinds, problems):
-            if len(entries) >= MAX_ENTRIES:
-                problems.append(f"runs: more than {MAX_ENTRIES} entries; split the batch")
-                raise BatchSpecError(problems, where)
+        for options in _expand_run(run, source, kinds, problems, MAX_ENTRIES - len(entries)):
             kind = options.pop("kind")
             entries.append(Entry(len(entries), source, kind, options))
     spec = BatchSpec(entries, db, workers, dict(raw))
@@ -199,9 +216,10 @@ def expand_batch(raw: Any, kinds: tuple[str, ...], where: str = "batch") -> Batc
 
 
 def _expand_run(
-    run: Any, source: int, kinds: tuple[str, ...], problems: list[str]
+    run: Any, source: int, kinds: tuple[str, ...], problems: list[str], room: int
 ) -> list[dict[str, Any]]:
-    """The option mappings of one run, one per combination of its sweeps."""
+    """The option mappings of one run, one per combination of its sweeps (counted first: more
+    than ``room`` is a problem, and nothing is built)."""
     name = f"runs[{source}]"
     if not isinstance(run, Mapping):
         problems.append(f"{name}: expected a mapping of options, found {run!r}")
@@ -226,6 +244,14 @@ def _expand_run(
             fixed[option] = value
     if len(problems) > before:
         return []  # a run with a malformed option expands to nothing (no follow-on errors)
+    count = math.prod(len(values) for values in swept.values())
+    if count > room:
+        sizes = " x ".join(f"{len(v)} ({k})" for k, v in swept.items())
+        problems.append(
+            f"{name}: its sweeps make {sizes} = {count} entries, more than the "
+            f"{MAX_ENTRIES} one batch may hold (with the runs before it); split the batch"
+        )
+        return []
     combinations = []
     for chosen in itertools.product(*swept.values()):
         options = {**fixed, **dict(zip(swept, chosen, strict=True))}
@@ -255,7 +281,18 @@ def _sweep_values(sweep: Mapping[Any, Any], name: str, problems: list[str]) -> l
                 f"(step not 0), found {given!r}"
             )
             return None
-        values: list[Any] = list(range(*given))
+        span = range(*given)
+        try:
+            size = len(span)
+        except OverflowError:
+            size = MAX_ENTRIES + 1
+        if size > MAX_ENTRIES:
+            problems.append(
+                f"{name}: range {given!r} gives more than {MAX_ENTRIES} values; at most "
+                f"{MAX_ENTRIES}"
+            )
+            return None
+        values: list[Any] = list(span)
     elif how == "values":
         if not isinstance(given, list):
             problems.append(f"{name}: values expects a list, found {given!r}")
@@ -284,6 +321,13 @@ def _fill_templates(options: dict[str, Any], name: str, problems: list[str]) -> 
             continue
         try:
             fields = [f for _, f, _, _ in string.Formatter().parse(value) if f is not None]
+            odd = [f for f in fields if not f.isidentifier()]
+            if odd:
+                problems.append(
+                    f"{name}.{key}: the template {value!r} has the field {{{odd[0]}}}; fields "
+                    f"are plain option names (as {{seed}}, or {{seed:03d}}): {sorted(names)}"
+                )
+                continue
             filled[key] = value.format_map(names)
         except (KeyError, ValueError, IndexError, AttributeError) as error:
             problems.append(

@@ -92,7 +92,10 @@ KINDS: dict[str, Kind] = {
 }
 
 #: Options a batch entry may not set: the batch decides them.
-BATCH_LEVEL = ("db", "no-store", "repeat", "workers", "scheduler")
+BATCH_LEVEL = ("db", "no-store", "repeat", "workers", "scheduler", "db-allow-other-tables")
+
+#: Options that make no run: asked for in a batch file, they are an error, not a help page.
+NOT_RUNS = ("help",)
 
 
 def entry_argv(kind: str, options: dict[str, Any]) -> list[str]:
@@ -165,6 +168,7 @@ def build_tasks(entries: list[Any]) -> tuple[list[Any], list[str]]:
     made: dict[Path, Task] = {}  # trial folders written by the batch's simulations
     outs: dict[Path, int] = {}  # their output folders
     writes: dict[Path, int] = {}
+    keys: dict[str, int] = {}  # entries by the run they compute
     parser = build_parser()
     for entry in entries:
         where = entry.where()
@@ -173,6 +177,14 @@ def build_tasks(entries: list[Any]) -> tuple[list[Any], list[str]]:
             problems.append(
                 f"{where}: {forbidden} are set for the whole batch (colloc batch --db, "
                 "--workers, --scheduler), not per entry"
+            )
+            continue
+        asks_help = [k for k in entry.options if k in NOT_RUNS]
+        if asks_help:
+            words = " ".join(KINDS[entry.kind].words)
+            problems.append(
+                f"{where}: {asks_help[0]!r} makes no run; `colloc {words} --help` lists the "
+                "options an entry may set"
             )
             continue
         args, error = _parse(parser, entry_argv(entry.kind, entry.options))
@@ -199,6 +211,8 @@ def build_tasks(entries: list[Any]) -> tuple[list[Any], list[str]]:
             settings, found = kind.checks(args)
             inputs = {}
         problems += [f"{where}: {p}" for p in found]
+        if found:
+            continue  # its settings are not a run: no key, no task
         task = Task(
             entry.position,
             entry.kind,
@@ -210,6 +224,13 @@ def build_tasks(entries: list[Any]) -> tuple[list[Any], list[str]]:
         if kind.writes_trial:  # into out/trial
             made[(Path(settings.out) / TRIAL_DIR).resolve()] = task
             outs[Path(settings.out).resolve()] = entry.position
+        twin = keys.get(task.key)
+        if twin is not None:
+            problems.append(
+                f"{where}: the same run as entry {twin} (the same options and inputs); "
+                "remove one, or make them differ (e.g. the seed)"
+            )
+        keys.setdefault(task.key, entry.position)
         for path in _written(task):
             if path in writes:
                 problems.append(
@@ -324,11 +345,7 @@ def _batch_run(args: argparse.Namespace) -> int:
     if problems:
         for line in problems:
             print(f"colloc batch: error: {line}", file=sys.stderr)
-        print(
-            f"colloc batch: {len(problems)} problem(s) in {len(spec.entries)} entries; "
-            "nothing was run",
-            file=sys.stderr,
-        )
+        print(f"colloc batch: {len(problems)} problem(s); nothing was run", file=sys.stderr)
         return 2
     if args.check:
         print(f"{args.spec}: {len(tasks)} entries, all valid")
