@@ -334,3 +334,66 @@ def test_symbolic_feedback_sizes_itself_from_the_model():
     assert closed.controller_parameters == (sm.Symbol("k_0_0"), sm.Symbol("k_0_1"))
     fb = StateFeedback.symbolic(1, 2, name="K")
     assert fb.K.shape == (1, 2) and re.fullmatch(r"K_0_1", str(fb.K[0, 1]))
+
+
+def test_an_unknown_input_in_no_equation_is_refused():
+    with pytest.raises(ModelError, match=r"unknown_inputs: \['w'\] appear in no equation"):
+        Model.from_equations([q.diff(t) - u, u.diff(t) + k * q - r], [q, u], unknown_inputs=[r, w])
+
+
+def _pendulum_models():
+    """The same point-mass pendulum from Kane's and from Lagrange's method."""
+    theta, omega, mass, length, g, torque, N, A, origin, P = pendulum_frames()
+    A.set_ang_vel(N, omega * N.z)
+    P.v2pt_theory(origin, N, A)
+    kane = KanesMethod(N, [theta], [omega], kd_eqs=[theta.diff(t) - omega])
+    kane.kanes_equations([Particle("bob", P, mass)], [(P, -mass * g * N.y), (A, torque * N.z)])
+    A2 = N.orientnew("A2", "Axis", (theta, N.z))
+    P2 = origin.locatenew("P2", -length * A2.y)
+    P2.v2pt_theory(origin, N, A2)
+    bob2 = Particle("bob2", P2, mass)
+    bob2.potential_energy = mass * g * P2.pos_from(origin).dot(N.y)
+    lag = LagrangesMethod(Lagrangian(N, bob2), [theta], forcelist=[(A2, torque * N.z)], frame=N)
+    lag.form_lagranges_equations()
+    models = {
+        "kane": Model.from_kane(kane, unknown_inputs=[torque]),
+        "lagrange": Model.from_lagrange(lag, unknown_inputs=[torque]),
+    }
+    return models, theta, mass, length, g
+
+
+@pytest.mark.parametrize("method", ["kane", "lagrange"])
+def test_a_negative_known_mass_is_refused_by_the_problem(method):
+    """A known mass of -1 solved "successfully" to k3 = -2845 (issue 32 item 15)."""
+    from colloc import Problem, ProblemDefinitionError, Tracking
+
+    models, theta, mass, length, g = _pendulum_models()
+    model = models[method]
+    assert model.inertia is not None
+    times = np.linspace(0.0, 1.0, 11)
+    track = Tracking({theta: np.zeros(times.size)})
+    for bad in (-1.0, -1e-6):
+        with pytest.raises(ProblemDefinitionError, match=r"not positive definite.*mass=-1") as err:
+            Problem(
+                model, times, objective=track, known_parameters={mass: bad, length: 0.7, g: 9.81}
+            )
+        assert "smallest eigenvalue" in str(err.value)
+    Problem(model, times, objective=track, known_parameters={mass: 1.0, length: 0.7, g: 9.81})
+    # unknown mass: nothing to check at construction
+    Problem(model, times, objective=track, known_parameters={length: 0.7, g: 9.81})
+
+
+def test_the_pendulum_on_a_cart_has_a_mass_matrix_checked_and_plain_equations_none():
+    from colloc.model.inertia import inertia_problems
+    from colloc.models.pendulum_cart import derive
+
+    model = derive(2).to_model()
+    assert model.inertia is not None
+    values = {p: 1.0 for p in model.parameters}
+    assert inertia_problems(model, values) == []
+    negative = dict(values)
+    first_mass = next(p for p in model.parameters if str(p).startswith("m"))
+    negative[first_mass] = -5.0
+    assert "not positive definite" in inertia_problems(model, negative)[0]
+    plain = Model.from_equations([q.diff(t) - u, m * u.diff(t) + k * q], [q, u])
+    assert plain.inertia is None and inertia_problems(plain, {m: -1.0, k: 1.0}) == []

@@ -79,6 +79,11 @@ class Model:
         problem: the position- and velocity-level constraints that the residual holds only
         differentiated (:meth:`from_lagrange` with constraints). A :class:`colloc.Problem`
         imposes them at its first node.
+    inertia : sympy.ImmutableMatrix or None
+        For a mechanical model (:meth:`from_kane` without nonholonomic constraints,
+        :meth:`from_lagrange`): the mass matrix ``M(q)`` of the dynamic equations, in the
+        states and parameters; a :class:`colloc.Problem` checks that it is positive definite
+        with the known parameter values.
     """
 
     residual: sm.Matrix
@@ -92,6 +97,7 @@ class Model:
     t: sm.Symbol = TIME
     schedules: tuple[ParameterSchedule, ...] = ()
     initial_constraints: tuple[sm.Expr, ...] = ()
+    inertia: sm.ImmutableMatrix | None = None
 
     # ------------------------------------------------------------------ derived views
     @property
@@ -268,7 +274,7 @@ class Model:
         ud = sm.Matrix([ui.diff(t) for ui in u])
         kin = kane.mass_matrix_kin * qd - kane.forcing_kin
         dyn = kane.mass_matrix * ud - kane.forcing
-        return cls.from_equations(
+        model = cls.from_equations(
             kin.col_join(dyn),
             q + u,
             controlled_inputs=controlled_inputs,
@@ -279,6 +285,9 @@ class Model:
             t=t,
             input_derivatives=input_derivatives,
         )
+        if len(getattr(kane, "_udep", ())) or kane.mass_matrix.shape[0] != len(u):
+            return model  # nonholonomic: SymPy's augmented mass matrix is not symmetric
+        return replace(model, inertia=sm.ImmutableMatrix(kane.mass_matrix))
 
     @classmethod
     def from_lagrange(
@@ -360,6 +369,8 @@ class Model:
             t=t,
             input_derivatives=input_derivatives,
         )
+        mass = sm.Matrix(lagrange.mass_matrix).xreplace(to_first_order)
+        model = replace(model, inertia=sm.ImmutableMatrix(mass))
         if not at_start:
             return model
         constants = set().union(*(e.free_symbols for e in at_start)) - {t}

@@ -88,6 +88,12 @@ def validate_model(
             "unknown functions of time in the residual (declare each as a state or an input): "
             f"{sorted(name_of(f) for f in undeclared)}"
         )
+    absent = [name_of(w) for w in unknown if w in declared and w not in in_residual]
+    if absent:
+        problems.append(
+            f"unknown_inputs: {absent} appear in no equation, so nothing could determine them "
+            "(a typo, or another function of the same name?)"
+        )
     for d in derivatives_in(residual):
         base, order = d.expr, sum(c for _, c in d.variable_count)
         if base not in states:

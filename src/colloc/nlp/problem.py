@@ -12,6 +12,7 @@ import numpy as np
 import sympy as sm
 
 from colloc.model.errors import ProblemDefinitionError, raise_if_any
+from colloc.model.inertia import inertia_problems
 from colloc.model.model import Model
 from colloc.model.symbols import name_of
 from colloc.nlp.assembly import AssembledNLP
@@ -174,6 +175,8 @@ class Problem:
                 problems.append(str(exc))
         check_node_terms(node_terms, model, scheme.node_derivatives, problems)
         check_schedules(model, self.known_parameters, unknown, self.known_trajectories, problems)
+        if not problems:
+            problems += inertia_problems(model, self.known_parameters)
         raise_if_any(problems, ProblemDefinitionError)
 
         self.layout = self._make_layout()
