@@ -236,7 +236,27 @@ GAIT_IDENTIFY_FLAGS = [
     "--seed",
     "--process-noise",
 ]
-GAIT_NUMBERS = ["1", "0", "-1", "2.5", "1e300", "-1e9", "nan", "inf", "1e6", "0.75", "3", "1,2"]
+GAIT_NUMBERS = [
+    "1",
+    "0",
+    "-1",
+    "2.5",
+    "1e300",
+    "-1e9",
+    "nan",
+    "inf",
+    "1e6",
+    "0.75",
+    "3",
+    "1,2",
+    "0.001",  # the values of issue 32's list, which failed 15-45 s into the work
+    "1e-9",
+    "1000000",
+    "1e9",
+    "100000",
+    "1.2",
+    "60",
+]
 GAIT_CHOICES = {
     "--structure": ["full", "joint-isolated", "bogus"],
     "--feedback": ["all", "joints", "joints+trunk", "metadata", "x"],
@@ -281,9 +301,50 @@ def test_fuzzed_gait_command_lines_are_checked_without_an_exception(seed, tmp_pa
     settings, problems = checks(args)
     assert time.perf_counter() - started < CASE_SECONDS
     assert all(isinstance(p, str) and p for p in problems)
-    if simulate and not problems:  # a simulation that may start fits the machine
+    if simulate and not problems:  # a simulation that may start fits the machine and its ranges
+        from colloc.gait import settings as gait_settings
+
         assert settings.estimated_needs()["memory_bytes"] < 24 * 2**30
+        assert settings.duration >= gait_settings.MIN_DURATION
+        low, high = gait_settings.SPEED_RANGE
+        assert low <= settings.speed <= high
+        assert settings.num_nodes <= gait_settings.MAX_NUM_NODES
+        assert settings.num_points <= gait_settings.MAX_NUM_POINTS
+        assert 0 <= settings.motor_noise <= gait_settings.MAX_MOTOR_NOISE
     assert not (tmp_path / "o").exists()  # checking writes nothing
+
+
+@pytest.mark.parametrize("flag", GAIT_SIMULATE_FLAGS)
+def test_each_gait_simulate_number_alone_is_refused_by_name_or_lies_in_its_range(flag, tmp_path):
+    """One flag at a time, the rest at their defaults: every value either passes the checks
+    and lies in the range the simulation works in, or a problem names the flag."""
+    from colloc.cli import gait_simulate_checks
+    from colloc.gait import settings as gait_settings
+
+    passed = 0
+    for value in GAIT_NUMBERS:
+        argv = ["gait", "simulate", flag, value, "--out", str(tmp_path / "o")]
+        with contextlib.redirect_stderr(io.StringIO()) as err:
+            try:
+                args = build_parser().parse_args(argv)
+            except SystemExit as exit_:
+                assert exit_.code == 2 and flag in err.getvalue(), (value, err.getvalue())
+                continue
+        settings, problems = gait_simulate_checks(args)
+        if problems:
+            name = flag.lstrip("-").replace("-", "_").split("_")[0]
+            assert any(name in p for p in problems), (value, problems)
+            continue
+        passed += 1
+        assert settings.duration >= gait_settings.MIN_DURATION
+        low, high = gait_settings.SPEED_RANGE
+        assert low <= settings.speed <= high
+        assert settings.num_nodes <= gait_settings.MAX_NUM_NODES
+        assert settings.num_points <= gait_settings.MAX_NUM_POINTS
+        assert 0 <= settings.motor_noise <= gait_settings.MAX_MOTOR_NOISE
+        assert settings.estimated_needs()["memory_bytes"] < 24 * 2**30
+    assert passed >= 1  # some value of each flag is a run
+    assert not (tmp_path / "o").exists()
 
 
 BELT = Path(__file__).resolve().parents[1] / "src" / "colloc" / "gait" / "reference"
@@ -426,4 +487,86 @@ def test_fuzzed_batch_files_give_tasks_or_problems_never_another_exception(
     named = {int(m) for p in found for m in re.findall(r"entry (\d+)\)", p)}
     for entry in entries:  # each entry became a task, or a problem names it
         assert entry.position in made or entry.position in named
+    assert time.perf_counter() - started < CASE_SECONDS
+
+
+def _pendulum_with_known_torque():
+    """A point-mass pendulum from Kane's method, its torque a known input."""
+    import sympy as sm
+    from sympy.physics.mechanics import KanesMethod, Particle, Point, ReferenceFrame, dynamicsymbols
+
+    from colloc import Model
+
+    theta, omega, torque = dynamicsymbols("theta omega T")
+    mass, length, g = sm.symbols("m l g")
+    N = ReferenceFrame("N")
+    A = N.orientnew("A", "Axis", (theta, N.z))
+    A.set_ang_vel(N, omega * N.z)
+    origin = Point("O")
+    origin.set_vel(N, 0)
+    bob = origin.locatenew("P", -length * A.y)
+    bob.v2pt_theory(origin, N, A)
+    kane = KanesMethod(N, [theta], [omega], kd_eqs=[theta.diff() - omega])
+    kane.kanes_equations([Particle("bob", bob, mass)], [(bob, -mass * g * N.y), (A, torque * N.z)])
+    return Model.from_kane(kane, known_inputs=[torque]), theta, torque, (mass, length, g)
+
+
+API_DATA = [
+    "text",
+    "1,2,3",
+    None,
+    float("nan"),
+    [1.0, 2.0],
+    np.zeros(11),
+    np.zeros((11, 2)),
+    np.full(11, np.nan),
+    np.full(11, np.inf),
+    np.zeros(11, dtype=complex),
+    {"a": 1},
+]
+API_NUMBERS = [1.0, -1.0, 0.0, float("nan"), float("inf"), -1e-9, 1e300, "1", None, True]
+
+
+@pytest.mark.parametrize("seed", range(120))
+def test_fuzzed_problem_definitions_give_a_problem_or_a_named_error(seed):
+    """The API cases of issue 32 item 15 and their neighbours: known trajectories keyed by
+    text, weights NaN, data as text, negative or odd known values. Every outcome is a built
+    problem or a colloc error naming what was wrong (never another exception, never a
+    negative mass that builds)."""
+    from colloc import ModelError, Problem, Tracking
+
+    model, theta, torque, (mass, length, g) = _pendulum_with_known_torque()
+    rng = np.random.default_rng(31000 + seed)
+    times = np.linspace(0.0, 1.0, 11)
+
+    def pick(options):
+        return options[int(rng.integers(len(options)))]
+
+    key = pick([torque, "T", theta, "theta", 3])
+    known_trajectories = {key: pick([*API_DATA, np.sin(times)])}
+    track_key = pick([theta, "theta", torque])
+    weight = pick([1.0, *API_NUMBERS])
+    known = {mass: pick(API_NUMBERS), length: pick([0.7, *API_NUMBERS]), g: 9.81}
+    started = time.perf_counter()
+    try:
+        tracking = Tracking(
+            {track_key: pick([*API_DATA, np.cos(times)])}, weights={track_key: weight}
+        )
+        problem = Problem(
+            model,
+            times,
+            known_trajectories=known_trajectories,
+            known_parameters=known,
+            objective=tracking,
+            cache=False,
+        )
+    except (ModelError, ValueError, TypeError, KeyError) as error:
+        message = str(error)
+        assert message and "Traceback" not in message
+        named = ("known", "tracking", "weight", "theta", "T", "m", "l", "mass", "objective")
+        assert any(word in message for word in named), message
+    else:
+        value = known[mass]
+        assert isinstance(value, int | float) and not value < 0, known  # a negative mass built
+        assert problem.layout.num_variables > 0
     assert time.perf_counter() - started < CASE_SECONDS

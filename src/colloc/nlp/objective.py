@@ -16,6 +16,7 @@ import sympy as sm
 
 from colloc.model.model import Model
 from colloc.model.symbols import name_of
+from colloc.numeric.real import real_array
 
 
 @dataclass(frozen=True)
@@ -108,9 +109,9 @@ class Tracking(ObjectiveTerm):
         unreadable = []
         for y, v in measurements.items():
             try:
-                self.measurements[y] = np.asarray(v, dtype=float)
-            except (TypeError, ValueError):
-                unreadable.append(f"{name_of(y)} ({type(v).__name__} {str(v)[:40]!r})")
+                self.measurements[y] = real_array(v)
+            except (TypeError, ValueError) as error:
+                unreadable.append(f"{name_of(y)} ({type(v).__name__} {str(v)[:40]!r}: {error})")
         if unreadable:
             raise ValueError(
                 f"measurements: expected numbers at the nodes (an array), found {unreadable}"

@@ -13,6 +13,7 @@ from colloc.model.model import Model
 from colloc.model.symbols import name_of
 from colloc.nlp.known import KnownTrajectory
 from colloc.nlp.objective import ObjectiveTerm
+from colloc.numeric.real import real_array
 from colloc.transcription.interpolation import CubicInterpolation, Interpolation
 
 Bounds = Mapping[sm.Basic, tuple[float, float]]
@@ -53,11 +54,11 @@ def check_trajectories(
             )
             continue
         try:
-            arr = np.asarray(values, dtype=float)
-        except (TypeError, ValueError):
+            arr = real_array(values)
+        except (TypeError, ValueError) as error:
             problems.append(
                 f"known_trajectories[{name_of(r)}]: expected numbers at the nodes, found "
-                f"{type(values).__name__} {str(values)[:40]!r}"
+                f"{type(values).__name__} {str(values)[:40]!r} ({error})"
             )
             continue
         if arr.shape != (num_nodes,):
