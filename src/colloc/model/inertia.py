@@ -45,7 +45,7 @@ def inertia_problems(model: object, known: Mapping[sm.Symbol, float], seed: int 
         parameters or inputs, or is not symmetric, as with nonholonomic constraints).
     """
     inertia = getattr(model, "inertia", None)
-    if inertia is None:
+    if inertia is None or inertia.shape[0] != inertia.shape[1]:
         return []
     states, t = model.states, model.t  # type: ignore[attr-defined]
     constants = tuple(sorted(inertia.free_symbols - set(states) - {t}, key=str))

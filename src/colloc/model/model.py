@@ -369,7 +369,8 @@ class Model:
             t=t,
             input_derivatives=input_derivatives,
         )
-        mass = sm.Matrix(lagrange.mass_matrix).xreplace(to_first_order)
+        # with constraints SymPy appends the multipliers' columns: M is the first n
+        mass = sm.Matrix(lagrange.mass_matrix)[:, : len(q)].xreplace(to_first_order)
         model = replace(model, inertia=sm.ImmutableMatrix(mass))
         if not at_start:
             return model
