@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import numpy as np
 import pytest
 
@@ -62,3 +64,40 @@ def test_unwrapped_phase_needs_increasing_strikes():
 
     with pytest.raises(ValueError, match="strictly increasing"):
         unwrapped_gait_phase([0.0, 1.0], [1.0, 1.0])
+
+
+def test_causal_phase_is_the_simulated_controllers_own():
+    """On a simulated trial the causal phase from the recorded heel strikes, the cycle's stride
+    duration and the phase at a strike is the controller's ``controller_phase`` column."""
+    from colloc.data import causal_gait_phase, read_trial
+
+    trial = read_trial(Path(__file__).parents[1] / "identify" / "data" / "gait_trial_p20")
+    t = trial.time
+    column = trial.signals["controller_phase"].to_numpy(dtype=float)
+    strikes = trial.right_heel_strikes
+    first = int(np.searchsorted(t, strikes[0]))  # the first sample that knows of the strike
+    phi0 = float(np.mod(column[first] - (t[first] - strikes[0]) / 1.2153340054141708, 1.0))
+    phase = causal_gait_phase(t, strikes, 1.2153340054141708, phi0)
+    after = t >= strikes[0]
+    assert np.all(np.isnan(phase[~after]))
+    # the same up to a whole number of strides (the column counts from the trial's start)
+    offset = np.round(column[first] - phase[first])
+    np.testing.assert_allclose(phase[after] + offset, column[after], atol=1e-9)
+    assert np.all(np.diff(phase[after]) >= 0)
+
+
+def test_causal_phase_holds_at_the_strides_end_and_checks_its_arguments():
+    from colloc.data import causal_gait_phase
+
+    t = np.array([0.5, 1.0, 1.5, 2.9, 3.0, 3.5])
+    phase = causal_gait_phase(t, [1.0, 3.0], 1.0, 0.25)
+    np.testing.assert_allclose(phase[1:], [0.25, 0.75, 1.25, 1.25, 1.75])  # held, then reset
+    assert np.isnan(phase[0])
+    for kwargs, message in (
+        ({"heel_strikes": []}, "heel_strikes"),
+        ({"stride_duration": 0.0}, "stride_duration"),
+        ({"phase_at_strike": 1.0}, "phase_at_strike"),
+    ):
+        arguments = {"heel_strikes": [1.0], "stride_duration": 1.0, "phase_at_strike": 0.0}
+        with pytest.raises(ValueError, match=message):
+            causal_gait_phase(t, **{**arguments, **kwargs})

@@ -60,6 +60,21 @@ def _process_noise(text: str) -> tuple[float, float]:
     return (parts[0], parts[-1])
 
 
+def _lags(text: str) -> tuple[int, ...]:
+    """``1,2`` -> (1, 2); ``none`` -> () (ordinary least squares)."""
+    if text.strip().lower() == "none":
+        return ()
+    try:
+        lags = tuple(int(v) for v in text.split(","))
+    except ValueError:
+        lags = ()
+    if not lags or any(v < 1 for v in lags):
+        raise argparse.ArgumentTypeError(
+            f"expected whole numbers of samples >= 1 separated by commas, or none; found {text!r}"
+        )
+    return lags
+
+
 def _exact_option_names(parser: argparse.ArgumentParser) -> None:
     """Refuse abbreviated option names in ``parser`` and every subcommand's parser:
     ``--numlink 2`` must not silently mean ``--numlinks 2`` (nor, in a batch file, slip a
@@ -176,8 +191,9 @@ def _identify_parser(gs: Any, default_url: str) -> None:
         "--phase",
         choices=gi.PHASES,
         default=d.phase,
-        help="phase: linear between right heel strikes, or the trial's controller_phase "
-        "column (default %(default)s)",
+        help="phase: causal (reset at each right heel strike, then rising at the stride rate: "
+        "what a real-time controller can know), linear between right heel strikes, or the "
+        "trial's controller_phase column (default %(default)s)",
     )
     idp.add_argument("--guess", choices=gi.GUESSES, default=d.guess)
     idp.add_argument(
@@ -213,6 +229,17 @@ def _identify_parser(gs: Any, default_url: str) -> None:
         help="estimate motor noise on each joint torque (std, N m) and residual forces on the "
         "trunk (std, N; default: JOINT) as disturbances: the maximum a posteriori fit, "
         "standard errors by the sandwich over strides (default: exact dynamics)",
+    )
+    idp.add_argument(
+        "--instrument-lags",
+        type=_lags,
+        default=d.instrument_lags,
+        metavar="LAGS",
+        help="method smoother: fit the schedule by two-stage least squares with the fed-back "
+        "states this many samples earlier as instruments, which removes the bias of motor noise "
+        "that reaches them within a sample; 'none': ordinary least squares (default "
+        + ",".join(str(v) for v in d.instrument_lags)
+        + ")",
     )
     idp.add_argument(
         "--no-simulate",
@@ -729,6 +756,7 @@ def gait_identify_checks(
         seed=args.seed,
         process_noise=args.process_noise,
         method=args.method,
+        instrument_lags=args.instrument_lags,
     )
     outputs = _output_problems(args.json, None if args.no_plots else args.out)
     return settings, settings.problems(require_trial=require_trial) + outputs

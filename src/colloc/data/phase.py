@@ -103,3 +103,58 @@ def unwrapped_gait_phase(time: ArrayLike, heel_strikes: ArrayLike) -> np.ndarray
     out = np.interp(t, hs, np.arange(hs.size, dtype=float))
     out[(t < hs[0]) | (t > hs[-1])] = np.nan
     return out
+
+
+def causal_gait_phase(
+    time: ArrayLike,
+    heel_strikes: ArrayLike,
+    stride_duration: float,
+    phase_at_strike: float = 0.0,
+) -> np.ndarray:
+    """The phase a real-time controller can know: reset at each heel strike, then rising at a
+    fixed stride rate and holding at the stride's end until the next strike comes.
+
+    A phase linear between heel strikes (:func:`unwrapped_gait_phase`) needs the time of the
+    next strike, which a controller walking now cannot have. This one needs only the strikes
+    so far: during stride ``k`` (from strike ``k``) it is
+    ``k + min(phi_0 + (t - t_k) / D, 1 + phi_0)``, in cycles, never decreasing.
+
+    Parameters
+    ----------
+    time : array_like
+        Sample times.
+    heel_strikes : array_like
+        Increasing heel-strike times of the reference foot.
+    stride_duration : float
+        ``D``, seconds per cycle of phase (the nominal stride).
+    phase_at_strike : float, optional
+        ``phi_0`` in ``[0, 1)``: the phase a strike resets to (the schedule's origin).
+
+    Returns
+    -------
+    ndarray
+        NaN before the first strike.
+
+    Raises
+    ------
+    ValueError
+        When the strikes are fewer than one or not increasing, ``stride_duration`` is not a
+        positive finite number or ``phase_at_strike`` is outside ``[0, 1)``.
+    """
+    t = np.asarray(time, dtype=float)
+    hs = np.asarray(heel_strikes, dtype=float)
+    problems = []
+    if hs.ndim != 1 or hs.size < 1 or np.any(np.diff(hs) <= 0) or not np.all(np.isfinite(hs)):
+        problems.append(
+            f"heel_strikes: expected at least one strictly increasing time, found {hs.size}"
+        )
+    if not (isinstance(stride_duration, int | float) and 0 < stride_duration < np.inf):
+        problems.append(f"stride_duration: expected seconds > 0, found {stride_duration!r}")
+    if not (isinstance(phase_at_strike, int | float) and 0 <= phase_at_strike < 1):
+        problems.append(f"phase_at_strike: expected a number in [0, 1), found {phase_at_strike!r}")
+    if problems:
+        raise ValueError("; ".join(problems))
+    k = np.searchsorted(hs, t, side="right") - 1
+    since = t - hs[np.clip(k, 0, None)]
+    phase = k + np.minimum(phase_at_strike + since / stride_duration, 1.0 + phase_at_strike)
+    return np.where(k < 0, np.nan, phase)

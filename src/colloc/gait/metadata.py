@@ -45,6 +45,8 @@ def controller_metadata(
     structure: str | None = None,
     phase_convention: str = PHASE_CONVENTION,
     feedback: Sequence[str] | None = None,
+    phase_at_strike: float | None = None,
+    stride_duration: float | None = None,
 ) -> dict[str, Any]:
     """The true controller ``T = T*(phi) - K(phi) s`` as plain nested lists.
 
@@ -63,6 +65,10 @@ def controller_metadata(
     feedback : sequence of str, optional
         Names of the fed-back signals ``s`` (see :data:`STATE_SIGNAL_NAMES`); default the six
         joint angles then the six joint rates.
+    phase_at_strike, stride_duration : float, optional
+        A causal phase's ``phi_0`` and ``D`` (:func:`colloc.data.causal_gait_phase`),
+        recorded when given: with them an identification reproduces the controller's phase
+        from the heel strikes.
 
     Returns
     -------
@@ -98,8 +104,20 @@ def controller_metadata(
             problems.append(f"{name}: expected finite values, found NaN/inf")
     if not problems and np.any(K[:, ~mask] != 0):
         problems.append("K: has nonzero gains outside mask")
+    if phase_at_strike is not None and not 0 <= phase_at_strike < 1:
+        problems.append(f"phase_at_strike: expected a number in [0, 1), found {phase_at_strike}")
+    if stride_duration is not None and not 0 < stride_duration < np.inf:
+        problems.append(f"stride_duration: expected seconds > 0, found {stride_duration}")
     if problems:
         raise ValueError("controller: " + "; ".join(problems))
+    causal = {
+        key: float(value)
+        for key, value in (
+            ("phase_at_strike", phase_at_strike),
+            ("stride_duration", stride_duration),
+        )
+        if value is not None
+    }
     return {
         "law": "T(t) = Tstar(phi) - K(phi) s(t)",
         "num_points": int(P),
@@ -110,6 +128,7 @@ def controller_metadata(
         "mask": mask.tolist(),
         "Tstar": Tstar.tolist(),
         "K": K.tolist(),
+        **causal,
     }
 
 

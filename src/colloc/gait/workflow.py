@@ -58,6 +58,7 @@ from colloc.gait.settings import (
     belt_input,
 )
 from colloc.gait.settle import CycleNotSettledError, settle_cycle
+from colloc.gait.strikes import strike_phase
 from colloc.gait.trials import record_to_trial
 from colloc.models.gait2d_params import load_parameters
 from colloc.plot.gait_animation import StickFigureGeometry
@@ -280,6 +281,8 @@ def simulate_trial(
                 structure=settings.structure,
                 phase_convention=SIMULATION_PHASE,
                 feedback=[STATE_SIGNAL_NAMES[i] for i in feedback],
+                phase_at_strike=strike_phase(cycle),
+                stride_duration=cycle.duration,
             ),
             cycle_speed=cycle.belt_speed,
             cycle_duration=cycle.duration,

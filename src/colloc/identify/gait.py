@@ -38,13 +38,13 @@ import time
 import warnings
 from collections.abc import Callable
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, TypeGuard
 
 import numpy as np
 
 from colloc.control.gain_scheduled import GainScheduled
 from colloc.data.columns import JOINT_ANGLE_COLUMNS, JOINT_RATE_COLUMNS, TORQUE_COLUMNS
-from colloc.data.phase import unwrapped_gait_phase
+from colloc.data.phase import causal_gait_phase, unwrapped_gait_phase
 from colloc.data.split import split
 from colloc.data.trial import Trial, read_trial
 from colloc.identify.direct import fit_gain_schedule, smooth_with_derivatives
@@ -209,7 +209,7 @@ def identify_gait(
     fit = data.fit
     t = fit.time[data.rows]
     signals = fit.signals.iloc[data.rows].reset_index(drop=True)
-    phase = _phase(settings.phase, data.trial.right_heel_strikes, t, signals)
+    phase = _phase(settings.phase, data.trial, t, signals)
     states = _measured_states(t, signals, settings.smoothing_window)
     fb_columns = [state_index[n] for n in data.feedback]
     measured_torques = signals[list(TORQUE_COLUMNS)].to_numpy()
@@ -345,9 +345,14 @@ def _closed_loop_fit(c: _FitContext) -> _Fit:
 
 def _smoother_fit(c: _FitContext) -> _Fit:
     """The dynamically consistent smoother (:mod:`colloc.identify.gait_smoother`), then the
-    schedule's least squares on its signals at the interval midpoints, with stride-sandwich
-    errors and the bound of the design (:mod:`colloc.identify.gait_controller_fit`)."""
-    from colloc.identify.gait_controller_fit import fit_schedule_with_errors
+    schedule's two-stage least squares on its node signals (or the ordinary least squares at
+    the interval midpoints), with stride-sandwich errors and the bound of the design
+    (:mod:`colloc.identify.gait_controller_fit`)."""
+    from colloc.identify.gait_controller_fit import (
+        MIN_SAMPLES_PER_PARAMETER,
+        fit_schedule_with_errors,
+        samples_per_parameter,
+    )
     from colloc.identify.gait_smoother import GaitSmoother, SmootherSettings, trial_noise_std
 
     settings, data, dyn, gs = c.settings, c.data, c.dyn, c.gs
@@ -357,11 +362,20 @@ def _smoother_fit(c: _FitContext) -> _Fit:
     result = smoother.run(progress=lambda stage, detail: c.say("smooth", f"{stage}: {detail}"))
     c.lap("smooth")
 
-    mid_t, mid_states, mid_torques = result.at_dynamics()
+    # Ordinary least squares reads the signals where the scheme holds the dynamics (the
+    # midpoints' averages cancel the midpoint rule's odd-even mode); the instrumented fit
+    # reads the nodes, whose lagged states are the better instruments (on the 120 s motor-
+    # noise trial K 30 % at the nodes, 40 % at the midpoints; docs/gait.md).
+    instrumented = bool(settings.instrument_lags) and (
+        samples_per_parameter(gs, result.times.size) >= MIN_SAMPLES_PER_PARAMETER
+    )
+    mid_t, mid_states, mid_torques = (
+        (result.times, result.states, result.torques) if instrumented else result.at_dynamics()
+    )
     if settings.phase == "controller":
         mid_phase = np.interp(mid_t, c.t, c.phase)
     else:
-        mid_phase = unwrapped_gait_phase(mid_t, data.trial.right_heel_strikes)
+        mid_phase = _phase(settings.phase, data.trial, mid_t, None)
     ok = np.isfinite(mid_phase)
     index = {n: i for i, n in enumerate(_state_names())}
     feedback = mid_states[:, [index[n] for n in data.feedback]]
@@ -372,13 +386,21 @@ def _smoother_fit(c: _FitContext) -> _Fit:
     noise = None if motor_std is None else np.full(6, np.hypot(torque_std, motor_std))
     c.say(
         "controller",
-        f"least squares at {int(ok.sum())} points where the dynamics hold, sandwich over strides",
+        f"schedule fit at {int(ok.sum())} points where the dynamics hold, sandwich over strides",
     )
     est = fit_schedule_with_errors(
-        gs, mid_phase[ok], feedback[ok], mid_torques[ok], strides[ok], noise
+        gs,
+        mid_phase[ok],
+        feedback[ok],
+        mid_torques[ok],
+        strides[ok],
+        noise,
+        instrument_lags=settings.instrument_lags,
     )
+    how = f"{est.method} ({est.reason})"
     c.notes.append(
-        f"standard errors: sandwich over {est.blocks} strides; bound: least squares with the "
+        f"schedule: {how}; standard errors: sandwich over {est.blocks} strides; bound: least "
+        "squares with the "
         "fed-back states known, torque noise "
         + (
             f"{float(noise[0]):.3g} N m (measurement and motor noise recorded in the trial)"
@@ -585,11 +607,60 @@ def _metadata_problems(recorded: dict[str, Any]) -> list[str]:
     return out
 
 
-def _phase(convention: str, strikes: np.ndarray, t: np.ndarray, signals: Any) -> np.ndarray:
-    """Unwrapped phase in cycles: linear between right heel strikes, or the trial's column."""
+def _phase(convention: str, trial: Any, t: np.ndarray, signals: Any) -> np.ndarray:
+    """Unwrapped phase in cycles at times ``t``: causal from the right heel strikes (the
+    default), linear between them, or the trial's ``controller_phase`` column (``signals``,
+    rows at ``t``)."""
     if convention == "controller":
         return signals["controller_phase"].to_numpy(dtype=float)
-    return unwrapped_gait_phase(t, strikes)
+    strikes = trial.right_heel_strikes
+    if convention == "heel-strikes":
+        return unwrapped_gait_phase(t, strikes)
+    stride, phi0, _ = causal_phase_parameters(trial.metadata, strikes)
+    return causal_gait_phase(t, strikes, stride, phi0)
+
+
+def causal_phase_parameters(
+    metadata: dict[str, Any], strikes: np.ndarray
+) -> tuple[float, float, str]:
+    """``D``, ``phi_0`` and where they came from, for :func:`colloc.data.causal_gait_phase`.
+
+    A synthetic trial records its controller's (``controller.stride_duration``,
+    ``controller.phase_at_strike``); otherwise ``D`` is the designed cycle's duration
+    (``cycle.duration``) or the median stride, and ``phi_0`` is 0 (the schedule starts at the
+    heel strike).
+
+    Parameters
+    ----------
+    metadata : dict
+        The trial's metadata.
+    strikes : ndarray
+        Right heel-strike times.
+
+    Returns
+    -------
+    stride_duration : float
+    phase_at_strike : float
+    source : str
+    """
+    controller = metadata.get("controller") if isinstance(metadata, dict) else None
+    controller = controller if isinstance(controller, dict) else {}
+    cycle = metadata.get("cycle") if isinstance(metadata, dict) else None
+    cycle = cycle if isinstance(cycle, dict) else {}
+    recorded, designed = controller.get("stride_duration"), cycle.get("duration")
+    if _positive(recorded):
+        stride, source = float(recorded), "the trial's controller"
+    elif _positive(designed):
+        stride, source = float(designed), "the trial's designed cycle"
+    else:
+        stride, source = float(np.median(np.diff(strikes))), "the median stride"
+    given = controller.get("phase_at_strike")
+    phi0 = float(given) if isinstance(given, int | float) and 0 <= given < 1 else 0.0
+    return stride, phi0, source
+
+
+def _positive(value: object) -> TypeGuard[float]:
+    return isinstance(value, int | float) and not isinstance(value, bool) and 0 < value < np.inf
 
 
 def _measured_states(t: np.ndarray, signals: Any, window: float) -> np.ndarray:
@@ -783,13 +854,10 @@ def _validate(
     """Torque VAF of each controller and the forward simulation on the held-out part."""
     part = data.held_out
     t, signals = part.time, part.signals
-    phase_all = _phase(settings.phase, data.trial.right_heel_strikes, t, signals)
-    if settings.phase == "heel-strikes":
-        # after the trial's last strike the stride is unknown: the torque check keeps the
-        # samples before it
-        rows = np.flatnonzero(np.isfinite(phase_all))
-    else:
-        rows = np.arange(t.size)
+    phase_all = _phase(settings.phase, data.trial, t, signals)
+    # outside the strikes the phase may be unknown (after the last, linear between strikes;
+    # before the first, causal): the torque check keeps the samples that have one
+    rows = np.flatnonzero(np.isfinite(phase_all))
     states = _measured_states(t, signals, settings.smoothing_window)
     index = {n: i for i, n in enumerate(_state_names())}
     feedback = [index[n] for n in data.feedback]
@@ -857,6 +925,11 @@ def _walk(
             1.0,
         )
         strike_phase = float(np.median(phi0))
+        start_phase = float(np.mod(phase[0], 1.0))
+    elif settings.phase == "causal":
+        stride, strike_phase, _ = causal_phase_parameters(
+            data.trial.metadata, data.trial.right_heel_strikes
+        )
         start_phase = float(np.mod(phase[0], 1.0))
     else:
         stride = float(np.median(np.diff(fit.right_heel_strikes)))
