@@ -302,16 +302,21 @@ def test_fuzzed_gait_command_lines_are_checked_without_an_exception(seed, tmp_pa
     assert time.perf_counter() - started < CASE_SECONDS
     assert all(isinstance(p, str) and p for p in problems)
     if simulate and not problems:  # a simulation that may start fits the machine and its ranges
-        from colloc.gait import settings as gait_settings
-
-        assert settings.estimated_needs()["memory_bytes"] < 24 * 2**30
-        assert settings.duration >= gait_settings.MIN_DURATION
-        low, high = gait_settings.SPEED_RANGE
-        assert low <= settings.speed <= high
-        assert settings.num_nodes <= gait_settings.MAX_NUM_NODES
-        assert settings.num_points <= gait_settings.MAX_NUM_POINTS
-        assert 0 <= settings.motor_noise <= gait_settings.MAX_MOTOR_NOISE
+        _assert_a_simulation_that_may_start(settings)
     assert not (tmp_path / "o").exists()  # checking writes nothing
+
+
+def _assert_a_simulation_that_may_start(settings) -> None:
+    """It lies in the ranges the simulation works in, and fits the machine."""
+    from colloc.gait import settings as gait_settings
+
+    assert settings.duration >= gait_settings.MIN_DURATION
+    low, high = gait_settings.SPEED_RANGE
+    assert low <= settings.speed <= high
+    assert settings.num_nodes <= gait_settings.MAX_NUM_NODES
+    assert settings.num_points <= gait_settings.MAX_NUM_POINTS
+    assert 0 <= settings.motor_noise <= gait_settings.MAX_MOTOR_NOISE
+    assert settings.estimated_needs()["memory_bytes"] < 24 * 2**30
 
 
 @pytest.mark.parametrize("flag", GAIT_SIMULATE_FLAGS)
@@ -319,7 +324,6 @@ def test_each_gait_simulate_number_alone_is_refused_by_name_or_lies_in_its_range
     """One flag at a time, the rest at their defaults: every value either passes the checks
     and lies in the range the simulation works in, or a problem names the flag."""
     from colloc.cli import gait_simulate_checks
-    from colloc.gait import settings as gait_settings
 
     passed = 0
     for value in GAIT_NUMBERS:
@@ -336,13 +340,7 @@ def test_each_gait_simulate_number_alone_is_refused_by_name_or_lies_in_its_range
             assert any(name in p for p in problems), (value, problems)
             continue
         passed += 1
-        assert settings.duration >= gait_settings.MIN_DURATION
-        low, high = gait_settings.SPEED_RANGE
-        assert low <= settings.speed <= high
-        assert settings.num_nodes <= gait_settings.MAX_NUM_NODES
-        assert settings.num_points <= gait_settings.MAX_NUM_POINTS
-        assert 0 <= settings.motor_noise <= gait_settings.MAX_MOTOR_NOISE
-        assert settings.estimated_needs()["memory_bytes"] < 24 * 2**30
+        _assert_a_simulation_that_may_start(settings)
     assert passed >= 1  # some value of each flag is a run
     assert not (tmp_path / "o").exists()
 

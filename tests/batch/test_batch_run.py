@@ -191,9 +191,32 @@ def test_the_same_batch_on_sqlite_and_postgresql_gives_the_same_runs(tmp_path, p
             )
 
 
-def test_ctrl_c_cancels_the_batch_cleanly_and_keeps_the_finished_runs(tmp_path):
+def _batch_until(spec: Path, db_file: Path, count_sql: str, at_least: int):
+    """``colloc batch SPEC`` in its own process group, returned once ``count_sql`` on its
+    database counts ``at_least`` (or after two minutes)."""
     import subprocess
     import sys
+
+    colloc = Path(sys.executable).with_name("colloc")
+    process = subprocess.Popen(
+        [str(colloc), "batch", str(spec)],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+        cwd=spec.parent,
+        start_new_session=True,
+    )
+    deadline = time.monotonic() + 120
+    count = 0
+    while time.monotonic() < deadline and count < at_least:
+        time.sleep(0.5)
+        if db_file.exists():
+            with contextlib.suppress(sqlite3.Error), sqlite3.connect(db_file) as connection:
+                count = connection.execute(count_sql).fetchone()[0]
+    return process
+
+
+def test_ctrl_c_cancels_the_batch_cleanly_and_keeps_the_finished_runs(tmp_path):
 
     db_file = tmp_path / "runs.db"
     spec = tmp_path / "batch.yaml"
@@ -201,23 +224,9 @@ def test_ctrl_c_cancels_the_batch_cleanly_and_keeps_the_finished_runs(tmp_path):
         f"db: sqlite:///{db_file}\nworkers: 1\nruns:\n  - kind: pendulum\n    duration: 10\n"
         "    sensornoise: true\n    seed: {range: [0, 40]}\n"
     )
-    colloc = Path(sys.executable).with_name("colloc")
-    process = subprocess.Popen(
-        [str(colloc), "batch", str(spec)],
-        stdout=subprocess.PIPE,
-        stderr=subprocess.PIPE,
-        text=True,
-        cwd=tmp_path,
+    process = _batch_until(
+        spec, db_file, "SELECT COUNT(*) FROM colloc_batch_entries WHERE status = 'done'", 2
     )
-    deadline = time.monotonic() + 120
-    done = 0
-    while time.monotonic() < deadline and done < 2:  # a couple of runs finished
-        time.sleep(0.5)
-        if db_file.exists():
-            with contextlib.suppress(sqlite3.Error), sqlite3.connect(db_file) as connection:
-                done = connection.execute(
-                    "SELECT COUNT(*) FROM colloc_batch_entries WHERE status = 'done'"
-                ).fetchone()[0]
     process.send_signal(signal.SIGINT)
     _, err = process.communicate(timeout=60)
     assert process.returncode == 130 and "interrupted" in err
@@ -268,8 +277,6 @@ def test_a_batch_into_a_database_of_other_tables_is_refused_before_any_work(tmp_
 
 
 def test_a_killed_batch_is_marked_dead_by_the_next_and_its_stored_runs_are_done(tmp_path):
-    import subprocess
-    import sys
 
     db_file = tmp_path / "runs.db"
     spec = tmp_path / "batch.yaml"
@@ -277,21 +284,7 @@ def test_a_killed_batch_is_marked_dead_by_the_next_and_its_stored_runs_are_done(
         f"db: sqlite:///{db_file}\nworkers: 1\nruns:\n  - kind: pendulum\n    duration: 5\n"
         "    seed: {range: [0, 40]}\n"
     )
-    colloc = Path(sys.executable).with_name("colloc")
-    process = subprocess.Popen(
-        [str(colloc), "batch", str(spec)],
-        stdout=subprocess.DEVNULL,
-        stderr=subprocess.DEVNULL,
-        cwd=tmp_path,
-        start_new_session=True,
-    )
-    deadline = time.monotonic() + 120
-    stored = 0
-    while time.monotonic() < deadline and stored < 1:
-        time.sleep(0.5)
-        if db_file.exists():
-            with contextlib.suppress(sqlite3.Error), sqlite3.connect(db_file) as connection:
-                stored = connection.execute("SELECT COUNT(*) FROM colloc_runs").fetchone()[0]
+    process = _batch_until(spec, db_file, "SELECT COUNT(*) FROM colloc_runs", 1)
     os.killpg(process.pid, signal.SIGKILL)  # the batch and its Dask workers, as a kill -9 would
     process.wait(timeout=30)
     with RunStore(f"sqlite:///{db_file}") as store:

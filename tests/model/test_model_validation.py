@@ -206,22 +206,8 @@ def test_from_lagrange_requires_lagranges_equations():
 
 
 def test_kane_and_lagrange_models_give_the_same_accelerations():
-    theta, omega, mass, length, g, torque, N, A, origin, P = pendulum_frames()
-    A.set_ang_vel(N, omega * N.z)
-    P.v2pt_theory(origin, N, A)
-    bob = Particle("bob", P, mass)
-    kane = KanesMethod(N, [theta], [omega], kd_eqs=[theta.diff(t) - omega])
-    kane.kanes_equations([bob], [(P, -mass * g * N.y), (A, torque * N.z)])
-    kane_model = Model.from_kane(kane, controlled_inputs=[torque])
-
-    A2 = N.orientnew("A2", "Axis", (theta, N.z))
-    P2 = origin.locatenew("P2", -length * A2.y)
-    P2.v2pt_theory(origin, N, A2)
-    bob2 = Particle("bob2", P2, mass)
-    bob2.potential_energy = mass * g * P2.pos_from(origin).dot(N.y)
-    lag = LagrangesMethod(Lagrangian(N, bob2), [theta], forcelist=[(A2, torque * N.z)], frame=N)
-    lag.form_lagranges_equations()
-    lag_model = Model.from_lagrange(lag, controlled_inputs=[torque])
+    models, theta, mass, length, g, torque = _pendulum_models(controlled_inputs="torque")
+    kane_model, lag_model = models["kane"], models["lagrange"]
     assert len(lag_model.states) == 2 and lag_model.outputs == {theta: theta}
 
     rng = np.random.default_rng(0)
@@ -341,8 +327,9 @@ def test_an_unknown_input_in_no_equation_is_refused():
         Model.from_equations([q.diff(t) - u, u.diff(t) + k * q - r], [q, u], unknown_inputs=[r, w])
 
 
-def _pendulum_models():
-    """The same point-mass pendulum from Kane's and from Lagrange's method."""
+def _pendulum_models(controlled_inputs=None):
+    """The same point-mass pendulum from Kane's and from Lagrange's method; its torque is
+    controlled (``controlled_inputs="torque"``) or unknown."""
     theta, omega, mass, length, g, torque, N, A, origin, P = pendulum_frames()
     A.set_ang_vel(N, omega * N.z)
     P.v2pt_theory(origin, N, A)
@@ -355,11 +342,12 @@ def _pendulum_models():
     bob2.potential_energy = mass * g * P2.pos_from(origin).dot(N.y)
     lag = LagrangesMethod(Lagrangian(N, bob2), [theta], forcelist=[(A2, torque * N.z)], frame=N)
     lag.form_lagranges_equations()
+    kind = "controlled_inputs" if controlled_inputs else "unknown_inputs"
     models = {
-        "kane": Model.from_kane(kane, unknown_inputs=[torque]),
-        "lagrange": Model.from_lagrange(lag, unknown_inputs=[torque]),
+        "kane": Model.from_kane(kane, **{kind: [torque]}),
+        "lagrange": Model.from_lagrange(lag, **{kind: [torque]}),
     }
-    return models, theta, mass, length, g
+    return models, theta, mass, length, g, torque
 
 
 @pytest.mark.parametrize("method", ["kane", "lagrange"])
@@ -367,7 +355,7 @@ def test_a_negative_known_mass_is_refused_by_the_problem(method):
     """A known mass of -1 solved "successfully" to k3 = -2845 (issue 32 item 15)."""
     from colloc import Problem, ProblemDefinitionError, Tracking
 
-    models, theta, mass, length, g = _pendulum_models()
+    models, theta, mass, length, g, _ = _pendulum_models()
     model = models[method]
     assert model.inertia is not None
     times = np.linspace(0.0, 1.0, 11)
