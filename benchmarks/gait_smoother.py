@@ -2,7 +2,9 @@
 time and iterations per stage, peak memory, and — given the noise-free twin of the trial
 (``colloc gait simulate`` with the same seed and ``--noise 0``) — the smoothed angles, rates
 and torques against the truth, with the direct least squares of the controller on the
-smoothed signals (at the interval midpoints) against the raw data's and the exact states'.
+smoothed signals (at the interval midpoints) against the raw data's and the exact states', and
+the default fit's two-stage least squares (instruments: the states one and two samples
+earlier, at the nodes) with its bound.
 
     python benchmarks/gait_smoother.py --trial NOISY --truth CLEAN --start 10 --duration 20 \
         [--repeat 3] [--no-grf] [--scheme midpoint|trapezoidal]
@@ -124,6 +126,32 @@ def one_case(
             "raw": errors(phase, S, T),
             "smoothed": errors(np.interp(at_t, result.times, phase), at_states, at_torques),
             "exact_states_measured_torques": errors(phase, S_true, T),
+        }
+        from colloc.identify.gait_controller_fit import fit_schedule_with_errors, relative_spread
+        from colloc.identify.gait_settings import DEFAULT_INSTRUMENT_LAGS
+
+        strides = np.searchsorted(trial.right_heel_strikes, result.times)
+
+        def instrumented(s, torque):
+            est = fit_schedule_with_errors(
+                gs, phase, s[:, fb], torque, strides, instrument_lags=DEFAULT_INSTRUMENT_LAGS
+            )
+            return {
+                "method": est.method,
+                "K": float(np.linalg.norm(est.K - K) / np.linalg.norm(K)),
+                "Tstar": float(np.linalg.norm(est.Tstar - Tstar) / np.linalg.norm(Tstar)),
+                "K_bound": relative_spread(est.K_bound, K),
+                "within_3se": float(
+                    np.mean(
+                        np.abs(np.append(est.K - K, est.Tstar - Tstar))
+                        <= 3 * np.append(est.K_se, est.Tstar_se)
+                    )
+                ),
+            }
+
+        record["controller_instrumented"] = {
+            "smoothed_nodes": instrumented(result.states, result.torques),
+            "exact_states_measured_torques": instrumented(S_true, T),
         }
     return record
 
