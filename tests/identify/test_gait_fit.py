@@ -179,3 +179,40 @@ def test_the_smoother_fit_runs_end_to_end_with_its_bounds_and_errors(tmp_path):
     )
     vaf = summary["validation"]["torque_vaf"]["collocation"]
     assert min(vaf.values()) > 0.7
+
+
+def test_records_sharing_the_controller_keep_their_lags_inside_and_add_up(design):
+    """Several records (windows, episodes) fitted together: the result does not depend on
+    their order, because no lag reaches into another record; without the labels it does."""
+    gs, _, _, Tstar, K, _, _ = design
+    rng = np.random.default_rng(12)
+    parts = [_closed_loop_sample(gs, Tstar, K, rng) for _ in range(2)]
+
+    def fit(order, labelled=True):
+        phase, feedback, torques, blocks = (
+            np.concatenate([parts[i][k] + (100 * j if k == 3 else 0) for j, i in enumerate(order)])
+            for k in range(4)
+        )
+        segments = np.repeat(np.arange(2), [parts[i][0].size for i in order])
+        return fit_schedule_with_errors(
+            gs,
+            phase,
+            feedback,
+            torques,
+            blocks,
+            instrument_lags=(1, 2),
+            segments=segments if labelled else None,
+        )
+
+    forward, backward = fit((0, 1)), fit((1, 0))
+    np.testing.assert_allclose(forward.K, backward.K, rtol=1e-8, atol=1e-10)
+    np.testing.assert_allclose(forward.K_se, backward.K_se, rtol=1e-8, atol=1e-12)
+    assert not np.allclose(fit((0, 1), False).K, fit((1, 0), False).K, rtol=1e-8, atol=1e-10)
+    one = fit_schedule_with_errors(gs, *parts[0], instrument_lags=(1, 2))
+    assert forward.blocks == 2 * one.blocks
+    assert np.median(forward.K_se / one.K_se) < 0.8  # twice the data: about 1/sqrt(2)
+    phase, feedback, torques, blocks = parts[0]
+    with pytest.raises(ValueError, match="segments: expected each record to be one run"):
+        fit_schedule_with_errors(
+            gs, phase, feedback, torques, blocks, segments=np.arange(phase.size) % 2
+        )

@@ -87,6 +87,7 @@ def fit_schedule_with_errors(
     blocks: np.ndarray,
     noise_std: np.ndarray | None = None,
     instrument_lags: tuple[int, ...] = (),
+    segments: np.ndarray | None = None,
 ) -> ScheduleEstimate:
     """Least squares of ``T = T*(phi) - K(phi) s`` with sandwich errors and the bound.
 
@@ -111,6 +112,11 @@ def fit_schedule_with_errors(
         consecutive in time; the first ``max(lags)`` are dropped. Empty (default): ordinary
         least squares, which is also used, and ``reason`` says why, when a torque's schedule
         has fewer than :data:`MIN_SAMPLES_PER_PARAMETER` samples per parameter.
+    segments : ndarray of int, shape (N,), optional
+        Several records sharing the controller (windows, episodes, trials): the label of
+        each sample's record, each record one run of consecutive samples. Lags stay inside a
+        record (its first ``max(lags)`` samples are dropped); the information of all records
+        is summed. Default: one record.
 
     Returns
     -------
@@ -139,6 +145,13 @@ def fit_schedule_with_errors(
         problems.append(
             f"instrument_lags: {max(lags)} samples leave too few of the {phase.shape[0]}"
         )
+    if segments is None:
+        segments = np.zeros(phase.shape[0], dtype=int)
+    segments = np.asarray(segments)
+    if segments.shape != phase.shape:
+        problems.append(f"segments: expected shape {phase.shape}, found {segments.shape}")
+    elif np.unique(segments).size != 1 + np.count_nonzero(segments[1:] != segments[:-1]):
+        problems.append("segments: expected each record to be one run of consecutive samples")
     if problems:
         raise ValueError("fit_schedule_with_errors: " + "; ".join(problems))
     per_parameter = samples_per_parameter(controller, phase.shape[0])
@@ -154,8 +167,10 @@ def fit_schedule_with_errors(
             "two-stage least squares",
             f"instruments: the feedback {lags} samples earlier",
         )
-    first = max(lags, default=0)
-    later = np.arange(first, phase.shape[0])
+    # each sample's index inside its record: lags reach back only that far
+    starts = np.r_[0, np.flatnonzero(segments[1:] != segments[:-1]) + 1]
+    inside = np.arange(phase.shape[0]) - np.repeat(starts, np.diff(np.r_[starts, phase.shape[0]]))
+    later = np.flatnonzero(inside >= max(lags, default=0))
     labels = np.unique(blocks[later], return_inverse=True)[1]
     out = {k: np.zeros((P, m)) for k in ("Tstar", "Tstar_se", "Tstar_bound")}
     out |= {k: np.zeros((P, m, ns)) for k in ("K", "K_se", "K_bound")}
