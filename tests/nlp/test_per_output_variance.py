@@ -51,7 +51,7 @@ def fits():
             guess = problem.initial_guess({x: data[x], v: clean[v]}, {k: 8.0, c: 0.3})
             sol = problem.solve(guess)
             assert sol.success, sol.stats["message"]
-            a = parameter_uncertainty(problem, sol)
+            a = parameter_uncertainty(problem, sol, method="kkt")
             b = parameter_uncertainty(problem, sol, per_output=True)
             assert (a.method, b.method) == ("kkt", "kkt per output")
             estimates.append([sol.parameters[k], sol.parameters[c]])

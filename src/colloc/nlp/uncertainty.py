@@ -35,7 +35,10 @@ if TYPE_CHECKING:
 
 
 #: The methods of :func:`parameter_uncertainty`.
-METHODS = ("kkt", "sandwich")
+METHODS = ("auto", "kkt", "sandwich")
+
+#: Fewest nodes for ``method="auto"`` to take the sandwich (five blocks of five nodes).
+AUTO_SANDWICH_MIN_NODES = 25
 
 
 @dataclass(frozen=True)
@@ -59,6 +62,8 @@ class ParameterUncertainty:
         or ``"cramer-rao"`` (a bound at a chosen point).
     blocks : int or None
         Number of time blocks of the sandwich estimate.
+    reason : str
+        Why ``method`` is the one used (asked for, or the automatic choice's grounds).
     """
 
     parameters: tuple[sm.Symbol, ...]
@@ -68,13 +73,14 @@ class ParameterUncertainty:
     degrees_of_freedom: int | None
     method: str = "kkt"
     blocks: int | None = None
+    reason: str = ""
 
 
 def parameter_uncertainty(
     problem: Problem,
     solution: Solution,
     num_measurements: int | None = None,
-    method: str = "kkt",
+    method: str = "auto",
     blocks: int | Sequence[int] | None = None,
     per_output: bool = False,
 ) -> ParameterUncertainty:
@@ -101,7 +107,13 @@ def parameter_uncertainty(
         Number of measured samples in the objective; by default counted from the problem's
         least-squares terms (samples with a positive weight, including the process-noise
         penalty's zero pseudo-measurements, whose disturbances are free quantities).
-    method : {"kkt", "sandwich"}
+    method : {"auto", "kkt", "sandwich"}
+        ``"auto"`` (default) chooses, and says why in ``reason``: the KKT form when the noise
+        is modelled (``process_noise`` or ``measured_inputs``) and the tracked residuals are
+        white (lag-1 autocorrelation within ``3 / sqrt(n)``), or with ``per_output``, or with
+        fewer than :data:`AUTO_SANDWICH_MIN_NODES` nodes; the sandwich otherwise. On the
+        gallery's problems the KKT errors of a fit without a noise model were 3-12 times too
+        small (20-57 % of the parameters within 3 SE).
     blocks : int or sequence of int, optional
         Sandwich only: the number of equal time blocks, or the first node of each block
         (e.g. each stride's heel strike). Default ``round(sqrt(N))`` blocks.
@@ -144,6 +156,9 @@ def parameter_uncertainty(
         )
     if method not in METHODS:
         raise ValueError(f"method: expected one of {list(METHODS)}, found {method!r}")
+    reason = "asked for"
+    if method == "auto":
+        method, reason = _choose_method(problem, solution.z, per_output)
     nlp, lay = problem.nlp, problem.layout
     q = len(lay.parameter_names)
     if q == 0:
@@ -163,9 +178,10 @@ def parameter_uncertainty(
     sigma2 = float(solution.stats["objective"]) / dof
     if starts is None and per_output:
         cov = _per_output_covariance(problem, solution.z, kkt, dof / num_measurements)
-        return _result(problem, cov, sigma2, dof, "kkt per output", None)
+        return _result(problem, cov, sigma2, dof, "kkt per output", None, reason)
     if starts is None:
-        return _result(problem, 2.0 * sigma2 * kkt.parameter_block(), sigma2, dof, "kkt", None)
+        cov = 2.0 * sigma2 * kkt.parameter_block()
+        return _result(problem, cov, sigma2, dof, "kkt", None, reason)
     if per_output:
         raise ValueError("per_output: only for method='kkt' (the sandwich needs no variances)")
     G = _block_gradients(problem, solution.z, starts)
@@ -186,7 +202,40 @@ def parameter_uncertainty(
     U = kkt.parameter_rows(G)
     nb = starts.size
     cov += nb / (nb - 1) * (U @ U.T)
-    return _result(problem, 0.5 * (cov + cov.T), sigma2, dof, "sandwich", nb)
+    return _result(problem, 0.5 * (cov + cov.T), sigma2, dof, "sandwich", nb, reason)
+
+
+def _choose_method(problem: Problem, z: np.ndarray, per_output: bool) -> tuple[str, str]:
+    """``method="auto"``: the method, and why."""
+    if per_output:
+        return "kkt", "per_output=True is a form of the KKT covariance"
+    residuals = tracking_residuals(problem, z)
+    modelled = sorted({r.kind for r in residuals if r.kind != "tracking"})
+    N = problem.layout.num_nodes
+    if modelled:
+        worst, limit = 0.0, 3.0 / np.sqrt(N)
+        for signal in residuals:
+            r = signal.residuals[signal.weights > 0]
+            if signal.kind == "tracking" and r.size > 2 and np.std(r) > 0:
+                worst = max(worst, abs(float(np.corrcoef(r[1:], r[:-1])[0, 1])))
+        if worst <= limit:
+            return "kkt", (
+                f"the noise is modelled ({', '.join(modelled)}) and the tracked residuals are "
+                f"white (lag-1 autocorrelation {worst:.2f} <= {limit:.2f})"
+            )
+        return "sandwich", (
+            f"the noise is modelled ({', '.join(modelled)}) but the tracked residuals are "
+            f"correlated (lag-1 autocorrelation {worst:.2f} > {limit:.2f})"
+        )
+    if N < AUTO_SANDWICH_MIN_NODES:
+        return "kkt", (
+            f"{N} nodes are too few for the sandwich's blocks (at least "
+            f"{AUTO_SANDWICH_MIN_NODES}); the KKT errors take the noise model as right"
+        )
+    return "sandwich", (
+        "the noise is not modelled: the sandwich over time blocks stays right when the weights "
+        "or the noise model are wrong or the residuals correlated"
+    )
 
 
 def _per_output_covariance(
@@ -399,6 +448,7 @@ def _result(
     dof: int | None,
     method: str,
     blocks: int | None = None,
+    reason: str = "",
 ) -> ParameterUncertainty:
     se = np.sqrt(np.clip(np.diag(cov), 0.0, None))
     params = problem.partition.unknown_parameters
@@ -410,4 +460,5 @@ def _result(
         dof,
         method,
         blocks,
+        reason,
     )
