@@ -151,3 +151,16 @@ def test_the_record_carries_each_foots_ground_reaction(dyn, standing, controller
     x = np.asarray(dyn.contact_positions.map(rec.times.size)(rec.states.T)).T
     for cop, heel, toe in ((grf[:, 2], x[:, 0], x[:, 1]), (grf[:, 5], x[:, 2], x[:, 3])):
         assert np.all((cop >= np.minimum(heel, toe) - 1e-9) & (cop <= np.maximum(heel, toe) + 1e-9))
+
+
+def test_a_joint_that_turns_over_is_a_fall_even_when_the_hip_holds(dyn, standing, controller):
+    """A diverging simulation once kept its hip in range while an ankle spun to 22 rad; the
+    trial writer caught it as "degrees?". A half turn of any joint now ends the walk."""
+    _, Tstar, K, _ = controller
+    spin = Tstar.copy()
+    spin[:, 2] += 400.0  # the right ankle's torque: the foot spins about the ankle
+    rec = simulate_walking(
+        standing, spin, np.zeros_like(K), 0.5, dynamics=dyn, hip_height_range=(0.0, 3.0)
+    )
+    assert rec.fell and "degrees (beyond +/-180)" in rec.message, rec.message
+    assert np.all(np.abs(rec.states[:-1, 2:9]) <= np.pi)

@@ -50,6 +50,10 @@ from colloc.gait.strikes import (
 
 logger = logging.getLogger(__name__)
 
+#: Trunk or joint angle [rad] beyond which a walk is lost: a half turn (a simulation whose
+#: ankle spun to 22 rad kept its hip in range and was caught only by the trial writer).
+MAX_SEGMENT_ANGLE = np.pi
+
 #: Samples per integrator call (a call restarts early at a right heel strike).
 CHUNK_SAMPLES = 25
 
@@ -326,6 +330,16 @@ def simulate_walking(
                 message = (
                     f"fell at t = {times[k]:.2f} s: hip height {states[k, 1]:.3f} m left the "
                     f"walking range {hip_height_range}"
+                )
+                i = k
+                break
+            spun = np.flatnonzero(np.abs(states[k, 2:9]) > MAX_SEGMENT_ANGLE)
+            if spun.size:  # a joint that turned over: the walk is lost even if the hip held
+                fell = True
+                message = (
+                    f"fell at t = {times[k]:.2f} s: coordinate {int(spun[0]) + 2} reached "
+                    f"{np.degrees(states[k, 2 + spun[0]]):.0f} degrees (beyond +/-"
+                    f"{np.degrees(MAX_SEGMENT_ANGLE):.0f})"
                 )
                 i = k
                 break
