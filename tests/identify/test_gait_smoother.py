@@ -139,9 +139,10 @@ class _Scripted(GaitSmoother):
         self.visited = []
         return np.zeros((self.times.size, 27))
 
-    def _attempt(self, problem, z, name, v_s):
+    def _attempt(self, problem, z, name, v_s, max_iter=None):
         v = round(v_s, 6)
         self.visited.append(v)
+        self.limits.append((name, max_iter))
         ok = self.failures.get(v, 0) <= 0
         self.failures[v] = self.failures.get(v, 0) - 1
         status = "Solve_Succeeded" if ok else "Maximum_Iterations_Exceeded"
@@ -155,6 +156,7 @@ def _scripted(window, dynamics, failures, **settings):
     t, q, v, T = window
     smoother = _Scripted(dynamics, t, q, v, STD, T, settings=SmootherSettings(**settings))
     smoother.failures = dict(failures)
+    smoother.visited, smoother.limits = [], []
     return smoother
 
 
@@ -164,6 +166,12 @@ def test_a_failed_continuation_step_is_halved_and_then_reaches_its_goal(window, 
     # midpoint at 0.1, 0.05, the first try at 0.01 fails, halfway (0.03), then 0.01
     assert smoother.visited == [0.1, 0.05, 0.01, 0.03, 0.01]
     assert stages[-1].success and stages[-1].friction_velocity == 0.01
+    # a continuation step is given its own, smaller iteration budget; the stages before, all
+    limits = dict.fromkeys(name for name, _ in smoother.limits)
+    assert {name: {m for n, m in smoother.limits if n == name} for name in limits} == {
+        "midpoint": {None},
+        "continuation": {SmootherSettings().step_max_iter},
+    }
 
 
 def test_a_goal_that_keeps_failing_stops_after_the_halvings_naming_the_stages(window, dynamics):

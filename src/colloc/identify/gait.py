@@ -415,7 +415,7 @@ def _smoother_fit(c: _FitContext) -> _Fit:
         ControllerEstimate(est.Tstar, est.K, est.Tstar_se, est.K_se, est.Tstar_bound, est.K_bound),
         {
             "status": last.status,
-            "success": all(s.success for s in result.stages),
+            "success": last.success,  # a failed continuation step is halved, not fatal
             "iterations": int(sum(s.iterations for s in result.stages)),
             "objective": last.objective,
             "constraint_violation": last.max_defect,

@@ -80,6 +80,9 @@ class SmootherSettings:
         How often a failed continuation step is halved before the smoother gives up.
     max_iter : int
         IPOPT iterations per stage.
+    step_max_iter : int
+        IPOPT iterations per continuation step: a step that needs more is halved (converged
+        steps took 5-25; a 30 s window's last step was still iterating after 450 s).
     scheme : Scheme
         The second-order scheme of the stages after backward Euler (default
         :class:`~colloc.transcription.Midpoint`).
@@ -98,6 +101,7 @@ class SmootherSettings:
     residual_std: tuple[float, float, float] = RESIDUAL_STD
     max_halvings: int = 3
     max_iter: int = 300
+    step_max_iter: int = 60
     scheme: Scheme = field(default_factory=Midpoint)
     window_seconds: float = 10.0
     overlap_seconds: float = 1.0
@@ -136,6 +140,7 @@ class SmootherSettings:
             ("filter_order", self.filter_order, 1),
             ("max_halvings", self.max_halvings, 0),
             ("max_iter", self.max_iter, 1),
+            ("step_max_iter", self.step_max_iter, 1),
         ):
             if isinstance(value, bool) or not isinstance(value, int) or value < low:
                 out.append(f"{name}: expected an integer >= {low}, found {value!r}")
@@ -656,10 +661,11 @@ class GaitSmoother:
             say("continuation", f"v_s {current:g} -> {goal:g} m/s")
             self._set_friction(midpoint, goal)
             try:
-                z = self._solve(midpoint, z, "continuation", goal, stages)
+                z = self._solve(midpoint, z, "continuation", goal, stages, s.step_max_iter)
             except SmootherError:
                 if halvings >= s.max_halvings:
                     raise
+                say("continuation", f"{stages[-1].describe()}: the step is halved")
                 halvings += 1
                 pending.insert(0, (0.5 * (current + goal), False))
                 continue
@@ -734,11 +740,18 @@ class GaitSmoother:
         problem.replace_data(known_parameters=constants)
 
     def _solve(
-        self, problem: Any, z: np.ndarray, name: str, v_s: float, stages: list[SmootherStage]
+        self,
+        problem: Any,
+        z: np.ndarray,
+        name: str,
+        v_s: float,
+        stages: list[SmootherStage],
+        max_iter: int | None = None,
     ) -> np.ndarray:
         """One stage's solve, recorded in ``stages``; raises :class:`SmootherError` when it
-        does not converge, naming it and the stages before it."""
-        stage, z_new = self._attempt(problem, z, name, v_s)
+        does not converge (within ``max_iter``, default the settings'), naming it and the
+        stages before it."""
+        stage, z_new = self._attempt(problem, z, name, v_s, max_iter)
         stages.append(stage)
         if not stage.success:
             done = "; ".join(s.describe() for s in stages[:-1])
@@ -750,12 +763,11 @@ class GaitSmoother:
         return z_new
 
     def _attempt(
-        self, problem: Any, z: np.ndarray, name: str, v_s: float
+        self, problem: Any, z: np.ndarray, name: str, v_s: float, max_iter: int | None = None
     ) -> tuple[SmootherStage, np.ndarray]:
         clock = time.perf_counter()
-        solution = problem.solve(
-            z, **{"max_iter": self.settings.max_iter, **self.settings.ipopt_options}
-        )
+        limit = self.settings.max_iter if max_iter is None else max_iter
+        solution = problem.solve(z, **{"max_iter": limit, **self.settings.ipopt_options})
         st = solution.stats
         stage = self._stage(
             name,
