@@ -348,11 +348,7 @@ def _smoother_fit(c: _FitContext) -> _Fit:
     schedule's two-stage least squares on its node signals (or the ordinary least squares at
     the interval midpoints), with stride-sandwich errors and the bound of the design
     (:mod:`colloc.identify.gait_controller_fit`)."""
-    from colloc.identify.gait_controller_fit import (
-        MIN_SAMPLES_PER_PARAMETER,
-        fit_schedule_with_errors,
-        samples_per_parameter,
-    )
+    from colloc.identify.gait_controller_fit import fit_schedule_with_errors, instruments_pay
     from colloc.identify.gait_smoother import GaitSmoother, SmootherSettings, trial_noise_std
 
     settings, data, dyn, gs = c.settings, c.data, c.dyn, c.gs
@@ -366,9 +362,7 @@ def _smoother_fit(c: _FitContext) -> _Fit:
     # midpoints' averages cancel the midpoint rule's odd-even mode); the instrumented fit
     # reads the nodes, whose lagged states are the better instruments (on the 120 s motor-
     # noise trial K 30 % at the nodes, 40 % at the midpoints; docs/gait.md).
-    instrumented = bool(settings.instrument_lags) and (
-        samples_per_parameter(gs, result.times.size) >= MIN_SAMPLES_PER_PARAMETER
-    )
+    instrumented = bool(settings.instrument_lags) and instruments_pay(gs, result.times.size)
     mid_t, mid_states, mid_torques = (
         (result.times, result.states, result.torques) if instrumented else result.at_dynamics()
     )

@@ -154,9 +154,9 @@ def fit_schedule_with_errors(
         problems.append("segments: expected each record to be one run of consecutive samples")
     if problems:
         raise ValueError("fit_schedule_with_errors: " + "; ".join(problems))
-    per_parameter = samples_per_parameter(controller, phase.shape[0])
     method, reason = "least squares", "asked for"
-    if lags and per_parameter < MIN_SAMPLES_PER_PARAMETER:
+    if lags and not instruments_pay(controller, phase.shape[0]):
+        per_parameter = samples_per_parameter(controller, phase.shape[0])
         reason = (
             f"{per_parameter:.1f} samples per parameter, fewer than the "
             f"{MIN_SAMPLES_PER_PARAMETER:g} at which the instruments pay (a longer record)"
@@ -237,6 +237,22 @@ def samples_per_parameter(controller: GainScheduled, num_samples: int) -> float:
     """
     width = 1 + int(np.max(np.sum(controller.mask, axis=1)))
     return num_samples / (controller.num_points * width)
+
+
+def instruments_pay(controller: GainScheduled, num_samples: int) -> bool:
+    """Whether ``num_samples`` are enough for the instruments to remove more error than they
+    add (:data:`MIN_SAMPLES_PER_PARAMETER`).
+
+    Parameters
+    ----------
+    controller : GainScheduled
+    num_samples : int
+
+    Returns
+    -------
+    bool
+    """
+    return samples_per_parameter(controller, num_samples) >= MIN_SAMPLES_PER_PARAMETER
 
 
 def relative_spread(spread: np.ndarray, reference: np.ndarray) -> float:

@@ -55,14 +55,10 @@ def inertia_problems(model: object, known: Mapping[sm.Symbol, float], seed: int 
     if compiled is None:
         return []
     values = [float(known[p]) for p in constants]
-
-    def evaluate(point: np.ndarray, time: float) -> object:
-        return compiled(point, time, values)
-
     rng = np.random.default_rng(seed)
     points = [np.zeros(len(states))] + [rng.normal(size=len(states)) for _ in range(CHECK_STATES)]
     for k, point in enumerate(points):
-        matrix = np.asarray(evaluate(point, 0.0), dtype=float)
+        matrix = np.asarray(compiled(point, 0.0, values), dtype=float)
         scale = max(float(np.max(np.abs(matrix))), 1e-300)
         if not np.all(np.isfinite(matrix)) or np.max(np.abs(matrix - matrix.T)) > TOLERANCE * scale:
             return []  # not a symmetric mass matrix: not this check's business

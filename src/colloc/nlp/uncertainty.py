@@ -27,7 +27,7 @@ import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 import sympy as sm
 
-from colloc.nlp.residuals import signal_columns, tracking_residuals
+from colloc.nlp.residuals import SignalResiduals, signal_columns, tracking_residuals
 
 if TYPE_CHECKING:
     from colloc.nlp.problem import Problem
@@ -157,8 +157,10 @@ def parameter_uncertainty(
     if method not in METHODS:
         raise ValueError(f"method: expected one of {list(METHODS)}, found {method!r}")
     reason = "asked for"
+    residuals = None if method == "kkt" else tracking_residuals(problem, solution.z)
     if method == "auto":
-        method, reason = _choose_method(problem, solution.z, per_output)
+        assert residuals is not None
+        method, reason = _choose_method(problem, residuals, per_output)
     nlp, lay = problem.nlp, problem.layout
     q = len(lay.parameter_names)
     if q == 0:
@@ -185,7 +187,8 @@ def parameter_uncertainty(
     if per_output:
         raise ValueError("per_output: only for method='kkt' (the sandwich needs no variances)")
     G = _block_gradients(problem, solution.z, starts)
-    priors = [r for r in tracking_residuals(problem, solution.z) if r.kind != "tracking"]
+    assert residuals is not None  # computed above for the sandwich
+    priors = [r for r in residuals if r.kind != "tracking"]
     cov = np.zeros((q, q))
     for prior in priors:
         # a disturbance or a measured input's correction: its residuals are shrunk by the
@@ -205,11 +208,12 @@ def parameter_uncertainty(
     return _result(problem, 0.5 * (cov + cov.T), sigma2, dof, "sandwich", nb, reason)
 
 
-def _choose_method(problem: Problem, z: np.ndarray, per_output: bool) -> tuple[str, str]:
-    """``method="auto"``: the method, and why."""
+def _choose_method(
+    problem: Problem, residuals: Sequence[SignalResiduals], per_output: bool
+) -> tuple[str, str]:
+    """``method="auto"``: the method, and why, from the residuals at the solution."""
     if per_output:
         return "kkt", "per_output=True is a form of the KKT covariance"
-    residuals = tracking_residuals(problem, z)
     modelled = sorted({r.kind for r in residuals if r.kind != "tracking"})
     N = problem.layout.num_nodes
     if modelled:

@@ -98,27 +98,6 @@ class BatchLog:
             self.finish(batch_id, "dead")
         return dead
 
-    def owner(self, batch_id: str) -> ProcessOwner | None:
-        """The process recorded as running ``batch_id`` (None when none is recorded).
-
-        Parameters
-        ----------
-        batch_id : str
-
-        Returns
-        -------
-        ProcessOwner or None
-        """
-        if not self._has_tables() or schema.batch_owners.name not in set(
-            inspect(self._engine).get_table_names()
-        ):
-            return None
-        with self._engine.connect() as connection:
-            row = connection.execute(
-                select(schema.batch_owners).where(schema.batch_owners.c.batch_id == batch_id)
-            ).first()
-        return None if row is None else ProcessOwner(row.host, row.pid, row.process_start)
-
     def start(
         self, batch_id: str, spec: Mapping[str, Any], entries: Sequence[Mapping[str, Any]]
     ) -> None:
@@ -225,11 +204,7 @@ class BatchLog:
         RecordError
             If ``status`` is not one of :data:`ENTRY_STATUSES`.
         """
-        if status not in ENTRY_STATUSES:
-            raise RecordError(
-                [f"status: expected one of {list(ENTRY_STATUSES)}, found {status!r}"], "entry"
-            )
-        with self._engine.begin() as connection:
+        with self._engine.begin() as connection:  # set_entry checks the status
             set_entry(
                 connection,
                 batch_id,
