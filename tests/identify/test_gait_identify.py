@@ -166,3 +166,22 @@ def test_bad_process_noise_is_refused_by_name(value, capsys):
         code = main(["gait", "identify", str(FIXTURE), "--process-noise", value])
     assert code is None and stop.value.code == 2
     assert "--process-noise" in capsys.readouterr().err
+
+
+def test_the_default_causal_phase_says_where_its_stride_and_reset_come_from(tmp_path):
+    """The fixture records its designed cycle but not its controller's reset phase: one
+    cycle per the cycle's duration, reset to 0, and the run's notes say so."""
+    out = tmp_path / "s.json"
+    args = ["--fit-fraction", "0.6", "--max-iter", "1", "--method", "closed-loop"]
+    main(
+        ["gait", "identify", str(FIXTURE), *args, "--no-plots", "--no-store", "--no-simulate"]
+        + ["--json", str(out)]
+    )
+    summary = json.loads(out.read_text())
+    assert summary["settings"]["phase"] == "causal"
+    duration = yaml.safe_load((FIXTURE / "metadata.yaml").read_text())["cycle"]["duration"]
+    expected = (
+        f"phase: causal, reset to 0 at each right heel strike, one cycle per {duration:.4g} s "
+        "(the trial's designed cycle)"
+    )
+    assert expected in summary["notes"]

@@ -210,6 +210,12 @@ def identify_gait(
     t = fit.time[data.rows]
     signals = fit.signals.iloc[data.rows].reset_index(drop=True)
     phase = _phase(settings.phase, data.trial, t, signals)
+    if settings.phase == "causal":
+        stride, phi0, source = causal_phase_parameters(meta, data.trial.right_heel_strikes)
+        notes.append(
+            f"phase: causal, reset to {phi0:.4g} at each right heel strike, one cycle per "
+            f"{stride:.4g} s ({source})"
+        )
     states = _measured_states(t, signals, settings.smoothing_window)
     fb_columns = [state_index[n] for n in data.feedback]
     measured_torques = signals[list(TORQUE_COLUMNS)].to_numpy()
