@@ -330,7 +330,7 @@ def test_settings_report_every_bad_field_before_any_work(monkeypatch, tmp_path):
     )  # fmt: skip
     expected = [
         "duration", "speed", "sample_rate", "body_mass", "height", "animation_seconds",
-        "motor_noise", "seed", "num_points", "num_nodes: expected an integer from 20 to 400",
+        "motor_noise", "seed", "num_points", "num_nodes: expected None (automatic) or an integer from 20 to 400",
         "noise: noise_std: unknown group 'knee'", "cache",
         "structure", "feedback: expected one of ['joints', 'joints+trunk', 'all']",
         "out: expected a directory, found an existing file", "belt_record",
@@ -363,7 +363,9 @@ def test_an_unstable_design_is_refused_before_simulating(monkeypatch, tmp_path, 
         r"(1|314|nan) .*P = 200 schedule points.*nothing was simulated",
     ):
         simulate_trial(settings)
-    assert [c[0] for c in calls] == ["cycle", "dynamics", "design"]
+    # each cycle of AUTO_NUM_NODES was tried, none simulated
+    assert [c[0] for c in calls] == ["dynamics", *["cycle", "design"] * 3]
+    assert [c[2]["num_nodes"] for c in calls if c[0] == "cycle"] == [60, 100, 160]
     assert not out.exists()
     # A ValueError, so the CLI reports it as an error message, not a traceback.
     assert issubclass(UnstableControllerError, ValueError)
@@ -378,7 +380,7 @@ def test_an_unstable_trial_controller_is_refused_after_settling(monkeypatch, tmp
     settings = GaitSimulationSettings(duration=3.0, out=out, perturbed=False, feedback="joints")
     with pytest.raises(UnstableControllerError, match=r"found 3.5 .*feedback 'joints'"):
         simulate_trial(settings)
-    assert [c[0] for c in calls] == ["cycle", "dynamics", "design", "settle", "design"]
+    assert [c[0] for c in calls] == ["dynamics", "cycle", "design", "settle", "design"]
     assert not out.exists()
 
 
@@ -421,8 +423,9 @@ def test_simulate_trial_writes_a_complete_output(monkeypatch, tmp_path):
     )  # fmt: skip
     result = simulate_trial(settings, progress=lambda step, detail: steps.append(step))
     assert steps == ["cycle", "settle", "design", "simulate", "trial", "figures", "animation"]
-    assert calls[0][0] == "cycle" and calls[0][2]["cache"] is False
-    assert calls[0][2]["num_nodes"] == 60
+    cycles = [c for c in calls if c[0] == "cycle"]
+    assert len(cycles) == 1 and cycles[0][2]["cache"] is False
+    assert cycles[0][2]["num_nodes"] == 60  # the first of AUTO_NUM_NODES settled
     # The settling controller feeds back every state but the hip's place; the trial's the
     # joints.
     designs = [c for c in calls if c[0] == "design"]
@@ -431,7 +434,7 @@ def test_simulate_trial_writes_a_complete_output(monkeypatch, tmp_path):
     assert designs[0][1] == SETTLE_POINTS and designs[1][1] == settings.num_points != SETTLE_POINTS
     assert next(c for c in calls if c[0] == "settle")[1] == list(range(1, 18))
     assert designs[1][2]["feedback"].tolist() == [*range(3, 9), *range(12, 18)]
-    assert calls[0][2]["params"].body_mass == 70.0
+    assert cycles[0][2]["params"].body_mass == 70.0
     simulate = next(c for c in calls if c[0] == "simulate")
     assert simulate[1] == 6.0 and simulate[2][0][-1] == pytest.approx(6.0)
     assert simulate[3]["dynamics"] == "dynamics" and simulate[3]["torque_noise"] == 2.0
@@ -457,6 +460,7 @@ def test_simulate_trial_writes_a_complete_output(monkeypatch, tmp_path):
     assert summary["hip_height_range"] == pytest.approx([hip.min(), hip.max()])
     assert set(summary["wall_times"]) == set(steps)
     assert summary["notes"] == []
+    assert summary["cycle"]["cycle_nodes"] == 60
     trial = read_trial(out / "trial")
     Tstar_back, K_back, _ = controller_from_metadata(trial.metadata)
     np.testing.assert_array_equal(Tstar_back, Tstar)
@@ -466,6 +470,7 @@ def test_simulate_trial_writes_a_complete_output(monkeypatch, tmp_path):
         JOINT_ANGLE_COLUMNS + JOINT_RATE_COLUMNS
     )
     assert trial.metadata["body_mass"] == 70.0
+    assert trial.metadata["cycle_nodes"] == 60
     assert trial.metadata["noise"]["seed"] == 5
     assert trial.metadata["belt"]["source"].endswith("RandomSlowSpeed1.txt")
     assert WalkingCycle.from_npz(out / "cycle.npz").duration == PERIOD
@@ -580,7 +585,10 @@ def test_cli_passes_motor_and_sensor_noise(monkeypatch, capsys, tmp_path):
     [
         (["--duration", "0.001"], "duration: expected at least 3.0 s (two complete strides"),
         (["--speed", "1e-9"], "speed: expected a walking speed from 0.5 to 2.0 m/s"),
-        (["--nodes", "1000000"], "num_nodes: expected an integer from 20 to 400"),
+        (
+            ["--nodes", "1000000"],
+            "num_nodes: expected None (automatic) or an integer from 20 to 400",
+        ),
         (["--motor-noise", "1e9"], "motor_noise: expected a number from 0 to 100.0"),
         (["--points", "100000"], "num_points: expected an integer from 2 to 200"),
         (["--out", ""], "argument --out: expected a path, found an empty one"),
@@ -647,10 +655,55 @@ def test_a_cycle_that_does_not_settle_is_reported_with_a_hint(monkeypatch, tmp_p
     out = tmp_path / "out"
     settings = GaitSimulationSettings(duration=3.0, out=out, perturbed=False, num_nodes=70)
     with pytest.raises(
-        CycleNotSettledError, match=r"did not walk 15 strides; the 70-node .*--nodes"
+        CycleNotSettledError,
+        match=r"^70 nodes: settle_cycle: .*did not walk 15 strides; .*too coarse.*--nodes\)$",
     ):
         workflow.simulate_trial(settings)
+    assert [c[2]["num_nodes"] for c in calls if c[0] == "cycle"] == [70]  # given: alone
     assert not out.exists()
+
+
+def test_a_cycle_that_does_not_settle_is_refined_and_the_trial_says_so(monkeypatch, tmp_path):
+    import json
+
+    import colloc.gait.workflow as workflow
+    from colloc.gait.settings import GaitSimulationSettings
+    from colloc.gait.settle import CycleNotSettledError
+
+    calls: list = []
+    fake_pipeline(monkeypatch, calls)
+
+    def falls_when_coarse(cycle, *args, **kwargs):
+        if cycle.stats["nodes"] < 100:
+            raise CycleNotSettledError("settle_cycle: fell at t = 2.18 s")
+        return cycle
+
+    def cycle_of(speed, **kwargs):
+        calls.append(("cycle", speed, kwargs))
+        n = kwargs["num_nodes"]
+        times = np.linspace(0.0, PERIOD, n)
+        return WalkingCycle(
+            times, np.zeros((n, 18)), np.zeros((n, 6)), np.zeros((n, 8)), speed, PERIOD,
+            stats={"nodes": n},
+        )  # fmt: skip
+
+    from colloc.gait.walking_cycle import WalkingCycle
+
+    monkeypatch.setattr(workflow, "settle_cycle", falls_when_coarse)
+    monkeypatch.setattr(workflow, "find_walking_cycle", cycle_of)
+    out = tmp_path / "out"
+    settings = GaitSimulationSettings(duration=3.0, out=out, perturbed=False, animation_seconds=0.5)
+    result = workflow.simulate_trial(settings)
+    assert [c[2]["num_nodes"] for c in calls if c[0] == "cycle"] == [60, 100]
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["cycle"]["cycle_nodes"] == 100
+    assert summary["settings"]["num_nodes"] is None
+    assert any(
+        n.startswith("the walking cycle was refined to 100 nodes: 60 nodes: settle_cycle: fell")
+        for n in summary["notes"]
+    )
+    assert result.trial.metadata["cycle_nodes"] == 100
+    assert summary["wall_times"]["cycle"] > 0
 
 
 def test_foot_ground_reactions_sum_each_foot_and_weigh_its_centre_of_pressure():

@@ -451,8 +451,9 @@ def build_parser() -> argparse.ArgumentParser:
     sim.add_argument(
         "--nodes",
         type=_positive_int,
-        default=60,
-        help="collocation nodes of the walking cycle (default %(default)s; 100 at 1.4 m/s)",
+        default=None,
+        help="collocation nodes of the walking cycle (default: 60, then 100 and 160 until the "
+        "cycle settles at the speed)",
     )
     sim.add_argument("--structure", default="full", help="gain structure: full or joint-isolated")
     sim.add_argument(

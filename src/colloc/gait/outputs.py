@@ -109,7 +109,7 @@ def publish(staging: Path, out: Path, names: list[str]) -> dict[str, Path]:
 
 
 #: Cycle statistics copied into the summary when present (see colloc.gait.settle).
-_CYCLE_STATS = ("source", "settle_residual", "hip_drift_per_stride", "num_strides")
+_CYCLE_STATS = ("source", "settle_residual", "hip_drift_per_stride", "num_strides", "cycle_nodes")
 
 
 def summarize(

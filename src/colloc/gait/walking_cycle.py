@@ -24,6 +24,7 @@ _STATS_IN_FILE = (  # scalars and small lists; the IPOPT log and history stay in
     *("solve_time", "scheme", "num_nodes", "rms_angle_error_deg", "peak_vertical_grf_bw"),
     *("rms_angle_error_by_joint_deg", "stages", "source", "settle_residual"),
     *("settle_duration_change", "hip_drift_per_stride", "num_strides", "stride_durations"),
+    "cycle_nodes",
 )
 
 

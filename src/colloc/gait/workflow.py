@@ -54,12 +54,14 @@ from colloc.gait.outputs import (
     write_json,
 )
 from colloc.gait.settings import (
+    AUTO_NUM_NODES,
     GaitSimulationSettings,
     belt_input,
 )
 from colloc.gait.settle import CycleNotSettledError, settle_cycle
 from colloc.gait.strikes import strike_phase
 from colloc.gait.trials import record_to_trial
+from colloc.gait.walking_cycle import WalkingCycle
 from colloc.models.gait2d_params import load_parameters
 from colloc.plot.gait_animation import StickFigureGeometry
 
@@ -145,7 +147,8 @@ class _Clock:
             self.progress(name, detail)
         start = time.perf_counter()
         yield
-        self.times[name] = time.perf_counter() - start
+        # a step run again (a cycle refined) adds its time
+        self.times[name] = self.times.get(name, 0.0) + time.perf_counter() - start
 
 
 def motor_seed(seed: int) -> int:
@@ -192,6 +195,55 @@ def check_stable(
         )
 
 
+def _settled_cycle(
+    settings: GaitSimulationSettings,
+    params: Any,
+    dynamics: GaitDynamics,
+    clock: _Clock,
+    notes: list[str],
+) -> WalkingCycle:
+    """The walking cycle at ``settings.speed`` settled by a full-state controller, from the
+    coarsest of the node counts to try that settles (:data:`AUTO_NUM_NODES` unless
+    ``settings.num_nodes`` names one)."""
+    tries = AUTO_NUM_NODES if settings.num_nodes is None else (settings.num_nodes,)
+    failures: list[str] = []
+    for nodes in tries:
+        with clock.step("cycle", f"periodic walking cycle at {settings.speed} m/s, {nodes} nodes"):
+            cycle = find_walking_cycle(
+                settings.speed, num_nodes=nodes, params=params, cache=settings.cache
+            )
+        with clock.step("settle", "the stride the continuous model walks, full-state feedback"):
+            # Every state but the hip's place on the treadmill. With it (Q weight 0.5 m) the
+            # default 1.2 m/s stride had not settled after 16 strides (multiplier 0.81), with
+            # a stronger weight the walker fell; without it the stride drifts 4.2 cm a stride.
+            _, settle_tstar, settle_k, settle_info = design_controller(
+                cycle,
+                SETTLE_POINTS,
+                dynamics=dynamics,
+                num_samples=DESIGN_SAMPLES,
+                feedback=REGULATED,
+            )
+            try:
+                check_stable(settle_info.spectral_radius, settings, "all", SETTLE_POINTS)
+                settled = settle_cycle(cycle, settle_tstar, settle_k, REGULATED, dynamics=dynamics)
+            except (CycleNotSettledError, UnstableControllerError) as error:
+                failures.append(f"{nodes} nodes: {error}")
+                last: Exception = error
+                continue
+        if failures:
+            notes.append(f"the walking cycle was refined to {nodes} nodes: " + "; ".join(failures))
+        settled.stats = {**settled.stats, "cycle_nodes": nodes}
+        return settled
+    hint = (
+        "the collocation cycle may be too coarse for this speed: try more nodes (num_nodes, "
+        "--nodes)"
+        if settings.num_nodes is not None
+        else f"no cycle of {', '.join(map(str, tries))} nodes settled at this speed"
+    )
+    # the kind of the last failure (an unstable design stays a ValueError for the CLI)
+    raise type(last)(f"{'; '.join(failures)}; {hint}")
+
+
 def simulate_trial(
     settings: GaitSimulationSettings, progress: Progress | None = None
 ) -> GaitSimulationResult:
@@ -222,30 +274,9 @@ def simulate_trial(
     clock = _Clock(progress)
     params = load_parameters(settings.body_mass, settings.height)
     belt, belt_description = belt_input(settings)
-    with clock.step("cycle", f"periodic walking cycle at {settings.speed} m/s"):
-        cycle = find_walking_cycle(
-            settings.speed, num_nodes=settings.num_nodes, params=params, cache=settings.cache
-        )
     dynamics = GaitDynamics.build(params)
-    with clock.step("settle", "the stride the continuous model walks, full-state feedback"):
-        # Every state but the hip's place on the treadmill. With it (Q weight 0.5 m) the
-        # default 1.2 m/s stride had not settled after 16 strides (multiplier 0.81), with a
-        # stronger weight the walker fell; without it the stride drifts 4.2 cm per stride.
-        _, settle_tstar, settle_k, settle_info = design_controller(
-            cycle,
-            SETTLE_POINTS,
-            dynamics=dynamics,
-            num_samples=DESIGN_SAMPLES,
-            feedback=REGULATED,
-        )
-        check_stable(settle_info.spectral_radius, settings, "all", SETTLE_POINTS)
-        try:
-            cycle = settle_cycle(cycle, settle_tstar, settle_k, REGULATED, dynamics=dynamics)
-        except CycleNotSettledError as error:
-            raise CycleNotSettledError(
-                f"{error}; the {settings.num_nodes}-node collocation cycle may be too coarse "
-                "for this speed: try more nodes (num_nodes, --nodes; 100 settles at 1.4 m/s)"
-            ) from error
+    notes: list[str] = []
+    cycle = _settled_cycle(settings, params, dynamics, clock, notes)
     feedback = FEEDBACK_SETS[settings.feedback]
     with clock.step(
         "design", f"gain-scheduled controller on {settings.feedback!r}, P = {settings.num_points}"
@@ -294,6 +325,7 @@ def simulate_trial(
             extra={
                 "settings": settings.to_dict(),
                 "motor_noise": {"std": settings.motor_noise, "seed": motor_seed(settings.seed)},
+                "cycle_nodes": cycle.stats["cycle_nodes"],
             },
         )
         trial = record_to_trial(
@@ -307,7 +339,6 @@ def simulate_trial(
     out = Path(settings.out)
     out.mkdir(parents=True, exist_ok=True)
     staging = out / f".staging-{secrets.token_hex(8)}"
-    notes: list[str] = []
     try:
         staging.mkdir()
         trial.write(staging / TRIAL_DIR)
