@@ -7,7 +7,7 @@ import pandas as pd
 import pytest
 
 from colloc.data.columns import REQUIRED_COLUMNS
-from colloc.data.split import split
+from colloc.data.split import split, stride_windows
 from colloc.data.trial import Trial
 
 
@@ -83,3 +83,33 @@ def test_too_few_samples() -> None:
     trial = make_trial(num_samples=5)
     with pytest.raises(ValueError, match="leaves 0 fit and 5 validation samples"):
         split(trial, 0.05)
+
+
+@pytest.mark.parametrize("per_window", [1, 2, 3, 4, 8])
+def test_stride_windows_tile_the_record_from_right_heel_strikes(per_window):
+    times = np.arange(1201) * 0.01  # 0..12 s
+    strikes = 0.5 + 1.1 * np.arange(11)  # 10 strides, the last strike at 11.5 s
+    windows = stride_windows(times, strikes, per_window)
+    assert windows[0][0] == 0 and windows[-1][1] == times.size
+    for (_, stop), (first, _) in zip(windows[:-1], windows[1:], strict=True):
+        assert stop == first  # consecutive, disjoint
+        # each later window starts at the sample of a right heel strike
+        assert np.min(np.abs(strikes - times[first])) < 1e-9
+    for first, stop in windows:
+        end = times[min(stop, times.size - 1)]  # the next window's first strike, or the end
+        whole = np.count_nonzero((strikes >= times[first] - 1e-9) & (strikes <= end + 1e-9)) - 1
+        # every window holds at least per_window whole strides, fewer than 2 per_window
+        # (one window: all of them)
+        assert per_window <= whole and (whole < 2 * per_window or len(windows) == 1)
+    expected = 10 // per_window if 10 >= 2 * per_window else 1
+    assert len(windows) == expected
+
+
+def test_stride_windows_refuse_what_cannot_be_cut():
+    times = np.arange(100) * 0.01
+    with pytest.raises(ValueError, match="strides_per_window: expected a whole number >= 1"):
+        stride_windows(times, [0.1, 0.5], 0)
+    with pytest.raises(ValueError, match="strides_per_window"):
+        stride_windows(times, [0.1, 0.5], 1.5)
+    with pytest.raises(ValueError, match="times: expected at least two increasing"):
+        stride_windows(times[::-1], [0.1, 0.5], 1)

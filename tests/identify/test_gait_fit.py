@@ -216,3 +216,32 @@ def test_records_sharing_the_controller_keep_their_lags_inside_and_add_up(design
         fit_schedule_with_errors(
             gs, phase, feedback, torques, blocks, segments=np.arange(phase.size) % 2
         )
+
+
+def test_windows_of_whole_strides_smooth_alone_and_share_the_controller(tmp_path, capsys):
+    """``--window-strides 2`` on the fixture: each window of two strides (from a right heel
+    strike) is smoothed alone with its own start; together they hold every node of the fit
+    window, follow the record as the one-window smoother does, and the schedule's fit keeps
+    its lags inside each window (fewer samples than one window's fit)."""
+    runs = {}
+    for name, extra in (("one", []), ("windows", ["--window-strides", "2"])):
+        out = tmp_path / f"{name}.json"
+        code = main(
+            ["gait", "identify", str(FIXTURE), "--phase", "controller", "--fit-fraction", "0.6"]
+            + ["--no-plots", "--no-store", "--no-simulate", "--json", str(out), *extra]
+        )
+        assert code == 0
+        said = capsys.readouterr()
+        runs[name] = (json.loads(out.read_text()), said.out + said.err)
+    one, windows = runs["one"][0], runs["windows"][0]
+    size = windows["problem"]
+    assert one["problem"]["windows"] == 1 and size["windows"] >= 2
+    assert size["nodes"] == one["problem"]["nodes"]  # disjoint windows, every node
+    assert windows["status"] == "Solve_Succeeded"
+    last = f"window {size['windows']}/{size['windows']}, "
+    assert last in runs["windows"][1] and "window " not in runs["one"][1]
+    # each window starts free at its first stride: its fit follows the record as closely
+    for joint, rms in windows["fit_angle_rms"].items():
+        assert rms < 0.25 and abs(rms - one["fit_angle_rms"][joint]) < 0.05, joint
+    vaf = windows["validation"]["torque_vaf"]["collocation"]
+    assert min(vaf.values()) > 0.7

@@ -44,6 +44,22 @@ def test_every_bad_field_is_named(tmp_path):
         settings.validate()
 
 
+@pytest.mark.parametrize(
+    ("value", "method", "expected"),
+    [
+        (1, "smoother", "whole strides >= 2"),
+        (2.5, "smoother", "whole strides >= 2"),
+        (True, "smoother", "whole strides >= 2"),
+        (4, "closed-loop", "an option of method 'smoother'"),
+    ],
+)
+def test_window_strides_is_checked(tmp_path, value, method, expected):
+    settings = GaitIdentifySettings(trial=tmp_path, window_strides=value, method=method)
+    found = [p for p in settings.problems() if p.startswith("window_strides:")]
+    assert len(found) == 1 and expected in found[0]
+    assert GaitIdentifySettings(trial=tmp_path, window_strides=2).problems() == []
+
+
 def test_track_needs_a_kinematic_signal(tmp_path):
     found = GaitIdentifySettings(trial=Path(tmp_path), track=("torques",)).problems()
     assert found and "angles" in found[0]

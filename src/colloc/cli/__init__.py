@@ -242,6 +242,14 @@ def _identify_parser(gs: Any, default_url: str) -> None:
         + ")",
     )
     idp.add_argument(
+        "--window-strides",
+        type=_positive_int,
+        default=d.window_strides,
+        metavar="N",
+        help="method smoother: smooth in windows of N whole strides sharing the controller "
+        "(memory follows the window; default: one window)",
+    )
+    idp.add_argument(
         "--no-simulate",
         action="store_true",
         help="skip the forward simulation of the held-out part",
@@ -758,6 +766,7 @@ def gait_identify_checks(
         process_noise=args.process_noise,
         method=args.method,
         instrument_lags=args.instrument_lags,
+        window_strides=args.window_strides,
     )
     outputs = _output_problems(args.json, None if args.no_plots else args.out)
     return settings, settings.problems(require_trial=require_trial) + outputs

@@ -88,3 +88,56 @@ def split(trial: Trial, fit_fraction: float = 0.75) -> tuple[Trial, Trial]:
             f"fit fraction"
         )
     return fit, validate
+
+
+def stride_windows(
+    times: np.ndarray, right_heel_strikes: np.ndarray, strides_per_window: int
+) -> list[tuple[int, int]]:
+    """Cut a record into windows of whole strides, each from one right heel strike.
+
+    Windows are consecutive and disjoint and together hold every sample: window ``k`` runs
+    from the sample at strike ``k * strides_per_window`` to the sample before strike
+    ``(k + 1) * strides_per_window``; samples before the first strike join the first
+    window, and the strides left at the end (fewer than ``strides_per_window``) join the
+    last, so no window is shorter than ``strides_per_window`` strides.
+
+    Parameters
+    ----------
+    times : ndarray, shape (N,)
+        Increasing sample times.
+    right_heel_strikes : ndarray
+        Times of right heel strikes [s]; those outside ``times`` are ignored.
+    strides_per_window : int
+        Whole strides per window, >= 1.
+
+    Returns
+    -------
+    list of (first, stop)
+        Sample ranges ``times[first:stop]``; one window covering all when the record has
+        fewer than ``2 * strides_per_window`` strides.
+
+    Raises
+    ------
+    ValueError
+        If ``strides_per_window`` is not a whole number >= 1 or ``times`` is not increasing.
+    """
+    if (
+        isinstance(strides_per_window, bool)
+        or not isinstance(strides_per_window, int | np.integer)
+        or strides_per_window < 1
+    ):
+        raise ValueError(
+            f"strides_per_window: expected a whole number >= 1, found {strides_per_window!r}"
+        )
+    times = np.asarray(times, dtype=float)
+    if times.ndim != 1 or times.size < 2 or np.any(np.diff(times) <= 0):
+        raise ValueError("times: expected at least two increasing sample times")
+    strikes = np.asarray(right_heel_strikes, dtype=float)
+    strikes = strikes[(strikes >= times[0]) & (strikes <= times[-1])]
+    # the sample at or just after each strike
+    starts = np.unique(np.searchsorted(times, strikes - 1e-9 * (times[1] - times[0])))
+    cuts = starts[::strides_per_window][1:]
+    if starts.size - 1 - (cuts.size) * strides_per_window < strides_per_window and cuts.size:
+        cuts = cuts[:-1]  # the strides left at the end join the last window
+    bounds = [0, *map(int, cuts), times.size]
+    return [(bounds[k], bounds[k + 1]) for k in range(len(bounds) - 1)]

@@ -45,7 +45,7 @@ import numpy as np
 from colloc.control.gain_scheduled import GainScheduled
 from colloc.data.columns import JOINT_ANGLE_COLUMNS, JOINT_RATE_COLUMNS, TORQUE_COLUMNS
 from colloc.data.phase import causal_gait_phase, unwrapped_gait_phase
-from colloc.data.split import split
+from colloc.data.split import split, stride_windows
 from colloc.data.trial import Trial, read_trial
 from colloc.identify.direct import fit_gain_schedule, smooth_with_derivatives
 from colloc.identify.gait_settings import DEFAULT_POINTS, GaitIdentifySettings
@@ -359,19 +359,30 @@ def _smoother_fit(c: _FitContext) -> _Fit:
 
     settings, data, dyn, gs = c.settings, c.data, c.dyn, c.gs
     meta = data.trial.metadata
-    smoother = GaitSmoother.from_trial(dyn, data.fit, data.rows, SmootherSettings())
-    c.say("smooth", f"{c.t.size} nodes: backward Euler, midpoint, contact continuation")
-    result = smoother.run(progress=lambda stage, detail: c.say("smooth", f"{stage}: {detail}"))
+    windows = (
+        [(0, data.rows.size)]
+        if settings.window_strides is None
+        else stride_windows(c.t, data.trial.right_heel_strikes, settings.window_strides)
+    )
+    results = []
+    for k, (first, stop) in enumerate(windows):
+        label = "" if len(windows) == 1 else f"window {k + 1}/{len(windows)}, "
+        smoother = GaitSmoother.from_trial(dyn, data.fit, data.rows[first:stop], SmootherSettings())
+        c.say("smooth", f"{label}{stop - first} nodes: backward Euler, midpoint, continuation")
+        results.append(smoother.run(progress=_prefixed(c.say, "smooth", label)))
     c.lap("smooth")
 
     # Ordinary least squares reads the signals where the scheme holds the dynamics (the
     # midpoints' averages cancel the midpoint rule's odd-even mode); the instrumented fit
     # reads the nodes, whose lagged states are the better instruments (on the 120 s motor-
     # noise trial K 30 % at the nodes, 40 % at the midpoints; docs/gait.md).
-    instrumented = bool(settings.instrument_lags) and instruments_pay(gs, result.times.size)
+    nodes = sum(r.times.size for r in results)
+    instrumented = bool(settings.instrument_lags) and instruments_pay(gs, nodes)
+    pieces = [(r.times, r.states, r.torques) if instrumented else r.at_dynamics() for r in results]
     mid_t, mid_states, mid_torques = (
-        (result.times, result.states, result.torques) if instrumented else result.at_dynamics()
+        np.concatenate(column) for column in zip(*pieces, strict=True)
     )
+    segments = np.concatenate([np.full(p[0].size, k) for k, p in enumerate(pieces)])
     if settings.phase == "controller":
         mid_phase = np.interp(mid_t, c.t, c.phase)
     else:
@@ -396,6 +407,7 @@ def _smoother_fit(c: _FitContext) -> _Fit:
         strides[ok],
         noise,
         instrument_lags=settings.instrument_lags,
+        segments=segments[ok],
     )
     how = f"{est.method} ({est.reason})"
     c.notes.append(
@@ -409,22 +421,38 @@ def _smoother_fit(c: _FitContext) -> _Fit:
         )
     )
     c.lap("controller")
-    last = result.stages[-1]
-    problem = result.problem
+    lasts = [r.stages[-1] for r in results]
     return _Fit(
         ControllerEstimate(est.Tstar, est.K, est.Tstar_se, est.K_se, est.Tstar_bound, est.K_bound),
         {
-            "status": last.status,
-            "success": last.success,  # a failed continuation step is halved, not fatal
-            "iterations": int(sum(s.iterations for s in result.stages)),
-            "objective": last.objective,
-            "constraint_violation": last.max_defect,
-            "message": "; ".join(s.describe() for s in result.stages),
+            "status": lasts[-1].status,
+            # a failed continuation step is halved, not fatal
+            "success": all(last.success for last in lasts),
+            "iterations": int(sum(s.iterations for r in results for s in r.stages)),
+            "objective": float(sum(last.objective for last in lasts)),
+            "constraint_violation": max(last.max_defect for last in lasts),
+            "message": " | ".join("; ".join(s.describe() for s in r.stages) for r in results),
             "log": "",
         },
-        _problem_size(problem, gs),
-        result.states[:, 3:9].copy(),
+        _summed_size([r.problem for r in results], gs),
+        np.concatenate([r.states[:, 3:9] for r in results]),
     )
+
+
+def _prefixed(say: Progress, step: str, label: str) -> Progress:
+    """``say`` under ``step`` with each stage's report prefixed by ``label``."""
+
+    def report(stage: str, detail: str) -> None:
+        say(step, f"{label}{stage}: {detail}")
+
+    return report
+
+
+def _summed_size(problems: list[Any], gs: GainScheduled) -> dict[str, int]:
+    """:func:`_problem_size` summed over windows' problems, with their count."""
+    sizes = [_problem_size(problem, gs) for problem in problems]
+    out = {key: sum(size[key] for size in sizes) for key in sizes[0]}
+    return out | {"parameters": len(gs.parameters), "windows": len(problems)}
 
 
 def _problem_size(problem: Any, gs: GainScheduled) -> dict[str, int]:

@@ -97,6 +97,12 @@ class GaitIdentifySettings:
         fed-back states this many samples earlier as instruments
         (:func:`colloc.identify.gait_controller_fit.fit_schedule_with_errors`); empty:
         ordinary least squares.
+    window_strides : int or None
+        Method ``smoother``: smooth the fit window in windows of this many whole strides
+        (:func:`colloc.data.split.stride_windows`), each with its own states and start,
+        sharing the controller: the schedule's fit sums their information, its lags stay
+        inside each. Memory then follows the window, not the record; windows are independent
+        (the episodes a cluster distributes). None (default): one window.
     """
 
     trial: Path
@@ -118,6 +124,7 @@ class GaitIdentifySettings:
     process_noise: tuple[float, float] | None = None
     method: str = "smoother"
     instrument_lags: tuple[int, ...] = DEFAULT_INSTRUMENT_LAGS
+    window_strides: int | None = None
 
     def problems(self, *, require_trial: bool = True) -> list[str]:
         """Every problem with the settings (empty when valid); the trial is not read.
@@ -183,6 +190,15 @@ class GaitIdentifySettings:
             )
         elif len(set(lags)) != len(lags):
             out.append(f"instrument_lags: expected distinct lags, found {lags!r}")
+        windows = self.window_strides
+        if windows is not None and not (_integer(windows) and windows >= 2):
+            out.append(
+                f"window_strides: expected None or whole strides >= 2 per window, found {windows!r}"
+            )
+        elif windows is not None and self.method != "smoother":
+            out.append(
+                f"window_strides: an option of method 'smoother', found method {self.method!r}"
+            )
         noise = self.process_noise
         if noise is not None and self.method != "closed-loop":
             out.append(
