@@ -99,7 +99,8 @@ class GaitIdentification:
         ``status``, ``success``, ``iterations``, ``objective``, ``constraint_violation``,
         ``message``, ``log``.
     validation : dict
-        ``torque_vaf`` (``collocation`` / ``direct`` -> joint -> VAF), ``walks``,
+        ``torque_vaf`` (``collocation`` / ``direct`` / ``truth`` when the trial records its
+        controller -> joint -> VAF), ``walks``,
         ``simulated_seconds``, ``message``, ``angle_rms_deg`` and ``angle_vaf`` (joint ->
         value), ``times``, ``measured_angles``, ``simulated_angles`` (arrays).
     metrics : dict
@@ -235,7 +236,10 @@ def identify_gait(
 
     truth = _truth(meta, data, gs, notes)
     say("validate", f"held-out {data.held_out.time[-1] - data.held_out.time[0]:.1f} s")
-    validation = _validate(settings, data, dyn, gs, {"collocation": collocation, "direct": direct})
+    # the trial's own controller, when it records one, beside them: the VAF a consistent
+    # estimate approaches (the direct fit's attenuated gains can predict noisy states better)
+    compared = {"collocation": collocation, "direct": direct} | ({"truth": truth} if truth else {})
+    validation = _validate(settings, data, dyn, gs, compared)
     lap("validate")
 
     return GaitIdentification(
