@@ -48,6 +48,9 @@ def test_direct_start_recovers_the_known_controller_and_walks_the_held_out_part(
     walk = summary["validation"]
     assert walk["walks"] is True
     assert max(walk["angle_rms"].values()) < 0.01  # degrees
+    # the direct fit is exact here too, and walked the same way
+    assert walk["direct_walk"]["walks"] is True
+    assert max(walk["direct_walk"]["angle_rms_deg"].values()) < 0.01
     assert summary["iterations"] == 0 and summary["status"] == "Maximum_Iterations_Exceeded"
     assert code == 1  # the solver did not converge (no iterations allowed): said by the code
     for key in ("times", "peak_rss_mb", "run_id", "problem"):

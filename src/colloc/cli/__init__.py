@@ -801,11 +801,13 @@ def _gait_identify(args: argparse.Namespace) -> int:
             print(f"{key}: {summary[key]:.2%}")
     if summary["fraction_within_3se"] is not None:
         print(f"entries within 3 SE of the truth: {summary['fraction_within_3se']:.1%}")
-    print("held-out torque VAF (collocation / direct):")
     vaf = run.validation["torque_vaf"]
+    print(f"held-out torque VAF ({' / '.join(vaf)}):")
     for joint in vaf["collocation"]:
-        print(f"  {joint:<12} {vaf['collocation'][joint]:8.4f} {vaf['direct'][joint]:8.4f}")
+        print(f"  {joint:<12}" + "".join(f" {vaf[name][joint]:8.4f}" for name in vaf))
     print(f"held-out forward simulation: {run.validation['message']}")
+    if run.validation.get("direct_walk"):
+        print(f"  under the direct fit: {run.validation['direct_walk']['message']}")
     for note in run.notes:
         print(f"note: {note}")
     stored = True

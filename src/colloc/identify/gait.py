@@ -100,7 +100,8 @@ class GaitIdentification:
         ``message``, ``log``.
     validation : dict
         ``torque_vaf`` (``collocation`` / ``direct`` / ``truth`` when the trial records its
-        controller -> joint -> VAF), ``walks``,
+        controller -> joint -> VAF), ``walks``, ``direct_walk`` (the direct fit's
+        ``walks``, ``message``, ``simulated_seconds``, ``angle_rms_deg``),
         ``simulated_seconds``, ``message``, ``angle_rms_deg`` and ``angle_vaf`` (joint ->
         value), ``times``, ``measured_angles``, ``simulated_angles`` (arrays).
     metrics : dict
@@ -909,6 +910,13 @@ def _validate(
             vaf = variance_accounted_for(torque, predicted)
             out[key][name] = dict(zip(JOINT_NAMES, map(float, vaf), strict=True))
     out.update(_walk(settings, data, dyn, controllers["collocation"], states, phase_all))
+    if settings.simulate_validation:
+        # the baseline walked too: whether its gains hold the gait is what tells them apart
+        # when its attenuated gains predict noisy states' torques as well (torque_vaf)
+        walk = _walk(settings, data, dyn, controllers["direct"], states, phase_all)
+        out["direct_walk"] = {
+            k: walk[k] for k in ("walks", "message", "simulated_seconds", "angle_rms_deg")
+        }
     return out
 
 

@@ -45,6 +45,7 @@ def gait_summary(run: GaitIdentification, run_id: str) -> dict[str, Any]:
                 "simulated_seconds": v.get("simulated_seconds"),
                 "angle_rms": v.get("angle_rms_deg"),
                 "angle_vaf": v.get("angle_vaf"),
+                "direct_walk": v.get("direct_walk"),
             },
             # fitted against measured joint angles over the fit window, degrees
             "fit_angle_rms": dict(
