@@ -241,7 +241,7 @@ def _settled_cycle(
         else f"no cycle of {', '.join(map(str, tries))} nodes settled at this speed"
     )
     # the kind of the last failure (an unstable design stays a ValueError for the CLI)
-    raise type(last)(f"{'; '.join(failures)}; {hint}")
+    raise type(last)(f"{'; '.join(failures)}; {hint}") from last
 
 
 def simulate_trial(
