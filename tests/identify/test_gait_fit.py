@@ -238,8 +238,8 @@ def test_windows_of_whole_strides_smooth_alone_and_share_the_controller(tmp_path
     assert one["problem"]["windows"] == 1 and size["windows"] >= 2
     assert size["nodes"] == one["problem"]["nodes"]  # disjoint windows, every node
     assert windows["status"] == "Solve_Succeeded"
-    last = f"window {size['windows']}/{size['windows']}, "
-    assert last in runs["windows"][1] and "window " not in runs["one"][1]
+    last = f"stride window {size['windows']}/{size['windows']}, "
+    assert last in runs["windows"][1] and "stride window" not in runs["one"][1]
     # each window starts free at its first stride: its fit follows the record as closely
     for joint, rms in windows["fit_angle_rms"].items():
         assert rms < 0.25 and abs(rms - one["fit_angle_rms"][joint]) < 0.05, joint

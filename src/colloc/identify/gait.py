@@ -371,7 +371,7 @@ def _smoother_fit(c: _FitContext) -> _Fit:
     )
     results = []
     for k, (first, stop) in enumerate(windows):
-        label = "" if len(windows) == 1 else f"window {k + 1}/{len(windows)}, "
+        label = "" if len(windows) == 1 else f"stride window {k + 1}/{len(windows)}, "
         smoother = GaitSmoother.from_trial(dyn, data.fit, data.rows[first:stop], SmootherSettings())
         c.say("smooth", f"{label}{stop - first} nodes: backward Euler, midpoint, continuation")
         results.append(smoother.run(progress=_prefixed(c.say, "smooth", label)))
