@@ -164,3 +164,17 @@ def test_a_joint_that_turns_over_is_a_fall_even_when_the_hip_holds(dyn, standing
     )
     assert rec.fell and "degrees (beyond +/-180)" in rec.message, rec.message
     assert np.all(np.abs(rec.states[:-1, 2:9]) <= np.pi)
+
+
+def test_an_integrator_failure_is_said_in_the_integrators_words_not_casadis_call_chain():
+    from colloc.gait.closed_loop import _solver_says
+
+    chain = (
+        "Error in Function::call for 'walk' [CvodesInterface] at .../function.cpp:1655:\n"
+        "Error in Function::call for 'walk' [CvodesInterface] at .../function.cpp:514:\n"
+        '.../cvodes_interface.cpp:403: CVode returned "{}". Consult CVODES documentation.'
+    )
+    said = _solver_says(RuntimeError(chain.format("CV_TOO_MUCH_WORK")))
+    assert said.startswith("CVODES took too many steps") and "function.cpp" not in said
+    assert _solver_says(RuntimeError(chain.format("CV_CONV_FAILURE"))) == "CVODES: CV_CONV_FAILURE"
+    assert _solver_says(RuntimeError("plain words")) == "plain words"

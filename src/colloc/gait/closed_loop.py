@@ -29,6 +29,7 @@ there. The belt speed and the motor noise are linear between samples.
 from __future__ import annotations
 
 import logging
+import re
 import time
 from dataclasses import dataclass, field
 from typing import Any
@@ -312,7 +313,7 @@ def simulate_walking(
         try:
             out = np.asarray(integ(x0=states[i], p=p)["xf"]).T
         except RuntimeError as exc:
-            fell, message = True, f"integration failed at t = {times[i]:.3f} s: {exc}"
+            fell, message = True, f"integration failed at t = {times[i]:.3f} s: {_solver_says(exc)}"
             break
         calls += 1
         torques[i] = np.asarray(torque_fn(states[i], 0.0, p)).ravel()
@@ -456,3 +457,14 @@ def _check(
 
 
 __all__ = ["ClosedLoopRecord", "simulate_walking"]
+
+
+def _solver_says(error: Exception) -> str:
+    """The integrator's own words from a CasADi error (its last line: CasADi's call chain
+    above it names source files, not the problem)."""
+    lines = [line.strip() for line in str(error).splitlines() if line.strip()]
+    last = lines[-1] if lines else repr(error)
+    quoted = re.search(r'returned "([A-Z_]+)"', last)
+    if quoted and quoted.group(1) == "CV_TOO_MUCH_WORK":
+        return "CVODES took too many steps (CV_TOO_MUCH_WORK): the closed loop diverged"
+    return f"CVODES: {quoted.group(1)}" if quoted else last
