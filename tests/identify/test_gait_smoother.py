@@ -116,6 +116,36 @@ def test_the_smoothed_motion_is_closer_to_the_truth_than_the_measurements(window
     assert mid_T.shape == (result.times.size - 1, 6)
 
 
+def test_radau_iia_converges_from_its_own_start_and_holds_the_dynamics_at_the_nodes(
+    window, dynamics, smoothed
+):
+    """``backward_euler_first=False`` with the stiffly accurate Radau IIA: its zero-defect
+    start fills the stage values too, one stage at the smoothed contact converges, and the
+    result is as close to the truth as the midpoint rule's after backward Euler."""
+    from colloc.transcription import RadauIIA
+
+    t, q_true, v, T_true = window
+    q, T = noisy(window, 2)  # the midpoint fixture's draw
+    settings = SmootherSettings(scheme=RadauIIA(), backward_euler_first=False)
+    smoother = GaitSmoother(dynamics, t, q, v, STD, T, settings=settings)
+    problem = smoother.problem(RadauIIA(), 0.1)
+    assert np.max(np.abs(problem.defects(smoother.start(problem)))) < 1e-8
+    result = smoother.run()
+    names = [s.name for s in result.stages]
+    assert names[:2] == ["start", "radau-iia"] and set(names[2:]) == {"continuation"}
+    assert all(s.success for s in result.stages) and result.stages[-1].friction_velocity == 0.01
+    at_t, at_x, at_T = result.at_dynamics()
+    np.testing.assert_array_equal(at_t, result.times)  # stiffly accurate: the nodes
+    rms = lambda a, b: np.sqrt(np.mean((a - b) ** 2, axis=0))  # noqa: E731
+    angles = slice(2, 9)
+    assert np.all(
+        rms(at_x[:, angles], q_true[:, angles]) < 0.7 * rms(q[:, angles], q_true[:, angles])
+    )
+    midpoint = smoothed[0]
+    radau_error, midpoint_error = rms(at_T, T_true), rms(midpoint.torques, T_true)
+    assert np.all(radau_error < 1.3) and np.all(radau_error < 1.2 * midpoint_error)
+
+
 class _Scripted(GaitSmoother):
     """A smoother whose solves fail as scripted, to test the schedule alone: ``failures``
     maps a slip scale to how many times its solve fails (``inf``: always)."""
@@ -189,9 +219,11 @@ def test_a_goal_that_keeps_failing_stops_after_the_halvings_naming_the_stages(wi
 
 def test_settings_and_arrays_are_checked_with_every_problem_named(window, dynamics):
     bad = SmootherSettings(
-        cutoff_hz=-1.0, continuation=(0.02, 0.05), max_iter=0, overlap_seconds=6.0
-    )
+        cutoff_hz=-1.0, continuation=(0.02, 0.05), max_iter=0, overlap_seconds=6.0,
+        backward_euler_first="yes",
+    )  # fmt: skip
     problems = bad.problems()
+    assert "backward_euler_first: expected True or False, found 'yes'" in problems
     assert any(p.startswith("cutoff_hz: expected a positive number") for p in problems)
     assert any("continuation: expected decreasing" in p for p in problems)
     assert any(p.startswith("max_iter: expected an integer >= 1") for p in problems)

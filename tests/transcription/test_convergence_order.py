@@ -17,7 +17,7 @@ import sympy as sm
 from sympy.physics.mechanics import dynamicsymbols
 
 from colloc import Model, Problem
-from colloc.transcription import BackwardEuler, HermiteSimpson, Midpoint, Trapezoidal
+from colloc.transcription import BackwardEuler, HermiteSimpson, Midpoint, RadauIIA, Trapezoidal
 
 T_FINAL = 2.0
 _s = sm.Symbol("s")
@@ -63,7 +63,13 @@ def final_error(scheme, num_nodes):
 
 @pytest.mark.parametrize(
     ("scheme", "num_nodes"),
-    [(BackwardEuler(), 81), (Midpoint(), 21), (Trapezoidal(), 21), (HermiteSimpson(), 21)],
+    [
+        (BackwardEuler(), 81),
+        (Midpoint(), 21),
+        (Trapezoidal(), 21),
+        (RadauIIA(), 21),
+        (HermiteSimpson(), 21),
+    ],
     ids=lambda p: getattr(p, "name", str(p)),
 )
 def test_measured_order_matches_declared_order(scheme, num_nodes):
@@ -79,8 +85,34 @@ def test_declared_orders():
     assert Midpoint.order == 2
     assert Trapezoidal.order == 2
     assert HermiteSimpson.order == 4
+    assert RadauIIA.order == 3
 
 
 def test_higher_order_scheme_is_more_accurate_on_the_same_grid():
     errors = {s.name: final_error(s, 21) for s in (BackwardEuler(), Midpoint(), HermiteSimpson())}
     assert errors["HermiteSimpson"] < 0.1 * errors["Midpoint"] < 0.1 * errors["BackwardEuler"]
+
+
+@pytest.mark.parametrize("z", [-0.5, -3.0, -100.0])
+def test_radau_follows_its_stability_function_and_damps_stiff_modes(z):
+    """On ``x' = lambda x`` every step multiplies by the method's stability function
+    ``R(z) = (1 + z/3) / (1 - 2z/3 + z^2/6)``, ``z = lambda h``; ``R(-inf) = 0`` (L-stable),
+    where the midpoint rule's ``(1 + z/2) / (1 - z/2)`` tends to -1."""
+    t = dynamicsymbols._t
+    x = dynamicsymbols("x")
+    h, steps = 0.01, 10
+    model = Model.from_equations([x.diff(t) - (z / h) * x], [x])
+    times = np.arange(steps + 1) * h
+    ends = {}
+    for scheme in (RadauIIA(), Midpoint()):
+        problem = Problem(
+            model, times, scheme=scheme, instance_constraints=[x.func(0.0) - 1.0], cache=False
+        )
+        solution = problem.solve(problem.initial_guess({x: np.exp(z * times / h)}), tol=1e-14)
+        assert solution.success
+        ends[scheme.name] = solution.trajectories[x][-1]
+    radau = (1 + z / 3) / (1 - 2 * z / 3 + z**2 / 6)
+    assert ends["RadauIIA"] == pytest.approx(radau**steps, rel=1e-8, abs=1e-14)
+    assert ends["Midpoint"] == pytest.approx(((1 + z / 2) / (1 - z / 2)) ** steps, rel=1e-8)
+    if z == -100.0:
+        assert abs(ends["RadauIIA"]) < 1e-15 < 0.5 < abs(ends["Midpoint"])

@@ -9,6 +9,7 @@ from colloc.transcription.interpolation import (
     LinearInterpolation,
 )
 from colloc.transcription.midpoint import Midpoint
+from colloc.transcription.radau import RadauIIA
 from colloc.transcription.trapezoidal import Trapezoidal
 
 __all__ = [
@@ -20,6 +21,7 @@ __all__ = [
     "LinearInterpolation",
     "Midpoint",
     "NodeView",
+    "RadauIIA",
     "Scheme",
     "TimeGrid",
     "Trapezoidal",

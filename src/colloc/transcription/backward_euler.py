@@ -12,6 +12,7 @@ class BackwardEuler(Scheme):
 
     order = 1
     interval_evaluation = 1.0
+    dynamics_at_nodes = True
 
     def interval_defects(self, F: Residual, iv: IntervalView) -> ca.SX:
         """Residual at the interval end with the backward difference for ``x'``."""

@@ -58,8 +58,13 @@ class Scheme(ABC):
     order: ClassVar[int]
     node_derivatives: ClassVar[bool] = False
     #: Where in the interval (fraction of h) the interval defects evaluate the residual;
-    #: None when they do not evaluate it. Scheduled parameters are bracketed there.
+    #: None when they do not evaluate it at one place. Scheduled parameters are bracketed
+    #: there (at the midpoint when None).
     interval_evaluation: ClassVar[float | None] = None
+    #: Whether the node values satisfy the model residual with the scheme's own rates (the
+    #: nodes are where a solution's states, inputs and forces are dynamically consistent);
+    #: False when the dynamics hold between the nodes only (the midpoint rule).
+    dynamics_at_nodes: ClassVar[bool] = False
 
     def num_interval_variables(self, num_states: int) -> int:
         """Number of extra variables the scheme places inside each interval."""

@@ -18,6 +18,7 @@ class HermiteSimpson(Scheme):
     order = 4
     interval_evaluation = 0.5
     node_derivatives = True
+    dynamics_at_nodes = True
 
     def num_interval_variables(self, num_states: int) -> int:
         """``x_m`` and ``v_m``."""

@@ -16,6 +16,7 @@ class Trapezoidal(Scheme):
 
     order = 2
     node_derivatives = True
+    dynamics_at_nodes = True
 
     def interval_defects(self, F: Residual, iv: IntervalView) -> ca.SX:
         """The trapezoidal quadrature of the derivative variables."""
