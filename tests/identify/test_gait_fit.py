@@ -224,7 +224,11 @@ def test_windows_of_whole_strides_smooth_alone_and_share_the_controller(tmp_path
     window, follow the record as the one-window smoother does, and the schedule's fit keeps
     its lags inside each window (fewer samples than one window's fit)."""
     runs = {}
-    for name, extra in (("one", []), ("windows", ["--window-strides", "2"])):
+    for name, extra in (
+        ("one", []),
+        ("windows", ["--window-strides", "2"]),
+        ("workers", ["--window-strides", "2", "--workers", "2"]),
+    ):
         out = tmp_path / f"{name}.json"
         code = main(
             ["gait", "identify", str(FIXTURE), "--phase", "controller", "--fit-fraction", "0.6"]
@@ -245,3 +249,15 @@ def test_windows_of_whole_strides_smooth_alone_and_share_the_controller(tmp_path
         assert rms < 0.25 and abs(rms - one["fit_angle_rms"][joint]) < 0.05, joint
     vaf = windows["validation"]["torque_vaf"]["collocation"]
     assert min(vaf.values()) > 0.7
+    # the same windows smoothed on two Dask worker processes: the same numbers
+    workers = runs["workers"][0]
+    assert workers["problem"] == size and "local workers" in runs["workers"][1]
+    for key in ("K_relative_error", "Tstar_relative_error", "fraction_within_3se"):
+        assert workers[key] == pytest.approx(windows[key], rel=1e-9, abs=1e-12), key
+    assert workers["fit_angle_rms"] == pytest.approx(windows["fit_angle_rms"], rel=1e-9)
+
+
+def test_workers_need_stride_windows(capsys):
+    code = main(["gait", "identify", str(FIXTURE), "--workers", "2", "--no-store", "--no-plots"])
+    assert code == 2
+    assert "--workers/--scheduler: expected --window-strides N" in capsys.readouterr().err

@@ -11,7 +11,7 @@ from colloc._lazy import lazy_exports
 _EXPORTS = {
     "BatchOutcome": "colloc.batch.execute",
     "batch_id_for": "colloc.batch.execute",
-    "default_workers": "colloc.batch.execute",
+    "default_workers": "colloc.batch.cluster",
     "run_batch": "colloc.batch.execute",
     "gait_table": "colloc.batch.report",
     "pendulum_table": "colloc.batch.report",
@@ -32,7 +32,8 @@ _EXPORTS = {
 __getattr__, __dir__ = lazy_exports(__name__, _EXPORTS, globals())
 
 if TYPE_CHECKING:  # for type checkers; re-exported through __all__
-    from colloc.batch.execute import BatchOutcome, batch_id_for, default_workers, run_batch
+    from colloc.batch.cluster import default_workers
+    from colloc.batch.execute import BatchOutcome, batch_id_for, run_batch
     from colloc.batch.report import gait_table, pendulum_table, write_batch_report
     from colloc.batch.spec import BatchSpec, BatchSpecError, Entry, expand_batch, read_batch_spec
     from colloc.batch.tasks import RUNNERS, Task, TaskResult, folder_digest, run_task, task_key

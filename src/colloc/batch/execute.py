@@ -11,16 +11,13 @@ running it again skips them (same entry keys) and does the rest.
 from __future__ import annotations
 
 import hashlib
-import logging
-import os
-import warnings
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
-import dask
-from distributed import Client, LocalCluster, as_completed
+from distributed import as_completed
 
+from colloc.batch.cluster import dask_client
 from colloc.batch.tasks import Task, TaskResult, run_task
 from colloc.store.ids import canonical_json
 from colloc.store.runs import RunStore
@@ -67,11 +64,6 @@ def batch_id_for(tasks: Sequence[Task]) -> str:
     return hashlib.sha256(text.encode()).hexdigest()
 
 
-def default_workers() -> int:
-    """Workers of the local cluster by default: one per core."""
-    return max(1, os.cpu_count() or 1)
-
-
 def run_batch(
     tasks: Sequence[Task],
     url: str,
@@ -94,7 +86,7 @@ def run_batch(
     spec : mapping, optional
         The batch as written, kept in its record.
     workers : int, optional
-        Workers of the local cluster (default :func:`default_workers`); ignored with
+        Workers of the local cluster (default :func:`colloc.batch.cluster.default_workers`); ignored with
         ``scheduler``.
     scheduler : str, optional
         Address of a running Dask scheduler (``"tcp://host:8786"``); its workers must reach
@@ -165,25 +157,7 @@ def _run_on_dask(
     log: Any,
     say: Callable[[TaskResult], None],
 ) -> None:
-    cluster = None
-    if scheduler is None:
-        # Not daemons: a worker may fork the watched IPOPT child (colloc.solve.watchdog).
-        # The scheduler's HTTP endpoint moves off a busy port 8787 with a warning that means
-        # nothing here (two batches at once); the dashboard itself is off.
-        with (
-            dask.config.set({"distributed.worker.daemon": False}),
-            warnings.catch_warnings(),
-        ):
-            warnings.filterwarnings("ignore", message="Port .* is already in use")
-            cluster = LocalCluster(
-                n_workers=workers or default_workers(),
-                threads_per_worker=1,
-                processes=True,
-                dashboard_address=None,
-                silence_logs=logging.ERROR,
-            )
-    client = Client(cluster if cluster is not None else scheduler)
-    try:
+    with dask_client(workers, scheduler) as client:
         outcome.workers = len(client.scheduler_info()["workers"])
         futures: dict[int, Any] = {}
         for task in tasks:
@@ -223,10 +197,6 @@ def _run_on_dask(
             client.cancel(list(futures.values()))
             log.finish(outcome.batch_id, "cancelled")
             raise
-    finally:
-        client.close()
-        if cluster is not None:
-            cluster.close()
 
 
 def _check_tasks(tasks: Sequence[Task]) -> None:

@@ -250,6 +250,20 @@ def _identify_parser(gs: Any, default_url: str) -> None:
         "(memory follows the window; default: one window)",
     )
     idp.add_argument(
+        "--workers",
+        type=_positive_int,
+        default=None,
+        metavar="N",
+        help="smooth the stride windows (--window-strides) on a local Dask cluster of N worker "
+        "processes (default: one after another in this process)",
+    )
+    idp.add_argument(
+        "--scheduler",
+        default=None,
+        metavar="ADDRESS",
+        help="smooth the stride windows on a running Dask cluster (tcp://host:8786) instead",
+    )
+    idp.add_argument(
         "--no-simulate",
         action="store_true",
         help="skip the forward simulation of the held-out part",
@@ -769,7 +783,13 @@ def gait_identify_checks(
         window_strides=args.window_strides,
     )
     outputs = _output_problems(args.json, None if args.no_plots else args.out)
-    return settings, settings.problems(require_trial=require_trial) + outputs
+    spread = []
+    if (args.workers is not None or args.scheduler is not None) and args.window_strides is None:
+        spread.append(
+            "--workers/--scheduler: expected --window-strides N (the stride windows are what "
+            "the workers smooth), found none"
+        )
+    return settings, settings.problems(require_trial=require_trial) + outputs + spread
 
 
 def _gait_identify(args: argparse.Namespace) -> int:
@@ -788,7 +808,16 @@ def _gait_identify(args: argparse.Namespace) -> int:
     store = _open_store(args)
     start = time.perf_counter()
     progress = _step_printer(start)
-    run = identify_gait(settings, progress=progress, iterations=_print_iteration)
+    if args.workers is not None or args.scheduler is not None:
+        from colloc.batch.cluster import client_map, dask_client
+
+        progress("workers", f"Dask: {args.scheduler or f'{args.workers} local workers'}")
+        with dask_client(args.workers, args.scheduler) as client:
+            run = identify_gait(
+                settings, progress, _print_iteration, map_windows=client_map(client)
+            )
+    else:
+        run = identify_gait(settings, progress=progress, iterations=_print_iteration)
     run_id = gait_run_id(run)
     summary = gait_summary(run, run_id)
     print(

@@ -49,6 +49,7 @@ from colloc.data.split import split, stride_windows
 from colloc.data.trial import Trial, read_trial
 from colloc.identify.direct import fit_gain_schedule, smooth_with_derivatives
 from colloc.identify.gait_settings import DEFAULT_POINTS, GaitIdentifySettings
+from colloc.identify.gait_windows import WindowMap, gait_dynamics
 from colloc.identify.validation import rms, variance_accounted_for
 
 Progress = Callable[[str, str], None]
@@ -156,6 +157,7 @@ def identify_gait(
     settings: GaitIdentifySettings,
     progress: Progress | None = None,
     iterations: Iterations | None = None,
+    map_windows: WindowMap | None = None,
 ) -> GaitIdentification:
     """Identify ``T*(phi)`` and ``K(phi)`` from a trial; validate on its held-out part.
 
@@ -167,6 +169,10 @@ def identify_gait(
     iterations : callable, optional
         Called after each solver iteration with ``iteration``, ``objective``,
         ``infeasibility``.
+    map_windows : callable, optional
+        Method ``smoother``: ``map_windows(function, jobs) -> results`` smooths the stride
+        windows (``settings.window_strides``) elsewhere, e.g. on Dask workers
+        (:mod:`colloc.identify.gait_windows`); default one after another here.
 
     Returns
     -------
@@ -197,13 +203,9 @@ def identify_gait(
     lap("read")
 
     # heavy imports only once the data are known to be usable
-    from colloc.gait.orbit import GaitDynamics
-    from colloc.models.gait2d_params import load_parameters
 
     meta = data.trial.metadata
-    dyn = GaitDynamics.build(
-        load_parameters(float(meta.get("body_mass", 75.0)), float(meta.get("height", 1.8)))
-    )
+    dyn = gait_dynamics(float(meta.get("body_mass", 75.0)), float(meta.get("height", 1.8)))
     model, torques = dyn.model, dyn.gait.torques
     state_index = {name: i for i, name in enumerate(_state_names())}
     feedback_states = [model.states[state_index[n]] for n in data.feedback]
@@ -230,7 +232,20 @@ def identify_gait(
     lap("direct")
 
     context = _FitContext(
-        settings, data, dyn, gs, t, signals, phase, states, direct, say, iterations, notes, lap
+        settings,
+        data,
+        dyn,
+        gs,
+        t,
+        signals,
+        phase,
+        states,
+        direct,
+        say,
+        iterations,
+        notes,
+        lap,
+        map_windows,
     )
     outcome = _FITS[settings.method](context)
     collocation = outcome.estimate
@@ -287,6 +302,7 @@ class _FitContext:
     iterations: Iterations | None
     notes: list[str]
     lap: Callable[[str], None]
+    map_windows: WindowMap | None = None
 
 
 @dataclass
@@ -360,21 +376,29 @@ def _smoother_fit(c: _FitContext) -> _Fit:
     the interval midpoints), with stride-sandwich errors and the bound of the design
     (:mod:`colloc.identify.gait_controller_fit`)."""
     from colloc.identify.gait_controller_fit import fit_schedule_with_errors, instruments_pay
-    from colloc.identify.gait_smoother import GaitSmoother, SmootherSettings, trial_noise_std
+    from colloc.identify.gait_smoother import trial_noise_std
+    from colloc.identify.gait_windows import WindowJob, smooth_windows
 
-    settings, data, dyn, gs = c.settings, c.data, c.dyn, c.gs
+    settings, data, gs = c.settings, c.data, c.gs
     meta = data.trial.metadata
     windows = (
         [(0, data.rows.size)]
         if settings.window_strides is None
         else stride_windows(c.t, data.trial.right_heel_strikes, settings.window_strides)
     )
-    results = []
-    for k, (first, stop) in enumerate(windows):
-        label = "" if len(windows) == 1 else f"stride window {k + 1}/{len(windows)}, "
-        smoother = GaitSmoother.from_trial(dyn, data.fit, data.rows[first:stop], SmootherSettings())
-        c.say("smooth", f"{label}{stop - first} nodes: backward Euler, midpoint, continuation")
-        results.append(smoother.run(progress=_prefixed(c.say, "smooth", label)))
+    body = (float(meta.get("body_mass", 75.0)), float(meta.get("height", 1.8)))
+    jobs = [
+        WindowJob(
+            data.fit,
+            data.rows[first:stop],
+            "" if len(windows) == 1 else f"stride window {k + 1}/{len(windows)}, ",
+            *body,
+        )
+        for k, (first, stop) in enumerate(windows)
+    ]
+    where = "" if c.map_windows is None else " on the workers"
+    c.say("smooth", f"{len(jobs)} window(s){where}: backward Euler, midpoint, continuation")
+    results = smooth_windows(jobs, _prefixed(c.say, "smooth"), c.map_windows)
     c.lap("smooth")
 
     # Ordinary least squares reads the signals where the scheme holds the dynamics (the
@@ -439,25 +463,18 @@ def _smoother_fit(c: _FitContext) -> _Fit:
             "message": " | ".join("; ".join(s.describe() for s in r.stages) for r in results),
             "log": "",
         },
-        _summed_size([r.problem for r in results], gs),
+        _summed_size([r.size for r in results], gs),
         np.concatenate([r.states[:, 3:9] for r in results]),
     )
 
 
-def _prefixed(say: Progress, step: str, label: str) -> Progress:
-    """``say`` under ``step`` with each stage's report prefixed by ``label``."""
+def _prefixed(say: Progress, step: str) -> Progress:
+    """``say`` under ``step``, each stage's name leading its report."""
 
     def report(stage: str, detail: str) -> None:
-        say(step, f"{label}{stage}: {detail}")
+        say(step, f"{stage}: {detail}")
 
     return report
-
-
-def _summed_size(problems: list[Any], gs: GainScheduled) -> dict[str, int]:
-    """:func:`_problem_size` summed over windows' problems, with their count."""
-    sizes = [_problem_size(problem, gs) for problem in problems]
-    out = {key: sum(size[key] for size in sizes) for key in sizes[0]}
-    return out | {"parameters": len(gs.parameters), "windows": len(problems)}
 
 
 def _problem_size(problem: Any, gs: GainScheduled) -> dict[str, int]:
@@ -470,6 +487,12 @@ def _problem_size(problem: Any, gs: GainScheduled) -> dict[str, int]:
         "nnz_jacobian": int(problem.nlp.nnz_jacobian),
         "nnz_hessian": int(problem.nlp.nnz_hessian),
     }
+
+
+def _summed_size(sizes: list[dict[str, int]], gs: GainScheduled) -> dict[str, int]:
+    """The windows' problem sizes summed, with the controller's parameters and the count."""
+    out = {key: sum(size[key] for size in sizes) for key in sizes[0]}
+    return out | {"parameters": len(gs.parameters), "windows": len(sizes)}
 
 
 #: ``GaitIdentifySettings.method`` -> the fit.

@@ -229,12 +229,18 @@ class SmoothedGait:
     residuals : ndarray, shape (N, 3)
         Residual forces on the trunk's x [N], y [N] and angle [N m].
     stages : list of SmootherStage
-    problem : Problem
-        The last stage's problem (midpoint at the model's contact).
+    problem : Problem or None
+        The last stage's problem (midpoint at the model's contact); None in a copy sent to
+        another process (a CasADi problem does not travel; everything else does).
     z : ndarray
         Its free vector at the solution.
     notes : list of str
         Anything the caller should know about the result.
+    scheme : Scheme or None
+        The last stage's scheme.
+    size : dict
+        The last stage's problem's ``nodes``, ``variables``, ``constraints``,
+        ``nnz_jacobian`` and ``nnz_hessian``.
     """
 
     times: np.ndarray
@@ -245,6 +251,13 @@ class SmoothedGait:
     problem: Any
     z: np.ndarray
     notes: list[str] = field(default_factory=list)
+    scheme: Scheme | None = None
+    size: dict[str, int] = field(default_factory=dict)
+
+    def __getstate__(self) -> dict[str, Any]:
+        state = dict(self.__dict__)
+        state["problem"] = None  # CasADi functions do not pickle
+        return state
 
     def at_intervals(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Times, states and torques at the interval midpoints (averages of neighbouring
@@ -260,7 +273,8 @@ class SmoothedGait:
         """Times, states and torques where the last stage's scheme holds the dynamics: the
         nodes for a scheme whose nodes satisfy them (trapezoidal, Hermite-Simpson, Radau IIA),
         else the interval midpoints (:meth:`at_intervals`; the midpoint rule)."""
-        if self.problem.scheme.dynamics_at_nodes:
+        scheme = self.scheme if self.scheme is not None else self.problem.scheme
+        if scheme.dynamics_at_nodes:
             return self.times, self.states, self.torques
         return self.at_intervals()
 
@@ -857,4 +871,12 @@ class GaitSmoother:
             stages,
             problem,
             np.asarray(z),
+            scheme=problem.scheme,
+            size={
+                "nodes": int(lay.num_nodes),
+                "variables": int(lay.num_variables),
+                "constraints": int(lay.num_constraints),
+                "nnz_jacobian": int(problem.nlp.nnz_jacobian),
+                "nnz_hessian": int(problem.nlp.nnz_hessian),
+            },
         )

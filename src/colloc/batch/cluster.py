@@ -1,0 +1,89 @@
+"""A Dask client: a local cluster of one-thread worker processes, or a running scheduler.
+
+Workers have one thread each (IPOPT and MUMPS use one core here) and are not daemons, so a
+solve in a worker can still fork the watched IPOPT child (:mod:`colloc.solve.watchdog`).
+"""
+
+from __future__ import annotations
+
+import logging
+import os
+import warnings
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
+from typing import Any
+
+import dask
+from distributed import Client, LocalCluster
+
+
+def default_workers() -> int:
+    """Workers of the local cluster by default: one per core."""
+    return max(1, os.cpu_count() or 1)
+
+
+@contextmanager
+def dask_client(workers: int | None = None, scheduler: str | None = None) -> Iterator[Client]:
+    """A Dask client, closed (with its local cluster) on leaving.
+
+    Parameters
+    ----------
+    workers : int, optional
+        Worker processes of the local cluster (default :func:`default_workers`); ignored
+        with ``scheduler``.
+    scheduler : str, optional
+        Address of a running Dask scheduler (``"tcp://host:8786"``); its workers must have
+        colloc installed.
+
+    Yields
+    ------
+    distributed.Client
+    """
+    cluster = None
+    if scheduler is None:
+        # The scheduler's HTTP endpoint moves off a busy port 8787 with a warning that means
+        # nothing here (two clusters at once); the dashboard itself is off.
+        with (
+            dask.config.set({"distributed.worker.daemon": False}),
+            warnings.catch_warnings(),
+        ):
+            warnings.filterwarnings("ignore", message="Port .* is already in use")
+            cluster = LocalCluster(
+                n_workers=workers or default_workers(),
+                threads_per_worker=1,
+                processes=True,
+                dashboard_address=None,
+                silence_logs=logging.ERROR,
+            )
+    client = Client(cluster if cluster is not None else scheduler)
+    try:
+        yield client
+    finally:
+        client.close()
+        if cluster is not None:
+            cluster.close()
+
+
+def client_map(client: Client) -> Callable[[Callable[[Any], Any], list[Any]], list[Any]]:
+    """``map(function, items) -> results`` on the client's workers, in the items' order.
+
+    Parameters
+    ----------
+    client : distributed.Client
+
+    Returns
+    -------
+    callable
+        Submits one task per item (``pure=False``: every item runs) and gathers them; a
+        task's exception is raised here.
+    """
+
+    def run(function: Callable[[Any], Any], items: list[Any]) -> list[Any]:
+        futures = client.map(function, items, pure=False)
+        try:
+            return list(client.gather(futures))
+        except BaseException:
+            client.cancel(futures)
+            raise
+
+    return run

@@ -1,0 +1,125 @@
+"""Windows of whole strides smoothed one by one, here or on other processes.
+
+Given the controller, the windows of a walking record are independent: each is smoothed
+alone (:class:`~colloc.identify.gait_smoother.GaitSmoother`, its own states and start), and
+only their smoothed signals meet again, in the schedule's fit. A :class:`WindowJob` holds
+what one window needs and nothing that cannot travel (no CasADi object: a worker builds the
+model once per process, :func:`gait_dynamics`), so the jobs can be handed to any ``map``: the
+built-in one, or a Dask client's (``colloc gait identify --workers``).
+"""
+
+from __future__ import annotations
+
+import functools
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from colloc.identify.gait_smoother import GaitSmoother, SmoothedGait, SmootherSettings
+
+Progress = Callable[[str, str], None]
+#: ``map_windows(function, jobs) -> results`` in the jobs' order.
+WindowMap = Callable[[Callable[[Any], Any], list[Any]], list[Any]]
+
+
+@functools.lru_cache(maxsize=4)
+def gait_dynamics(body_mass: float, height: float) -> Any:
+    """gait2d with a subject's segment parameters, built once per process.
+
+    Parameters
+    ----------
+    body_mass, height : float
+        [kg], [m].
+
+    Returns
+    -------
+    GaitDynamics
+    """
+    from colloc.gait.orbit import GaitDynamics
+    from colloc.models.gait2d_params import load_parameters
+
+    return GaitDynamics.build(load_parameters(float(body_mass), float(height)))
+
+
+@dataclass(frozen=True)
+class WindowJob:
+    """One window of a trial to smooth.
+
+    Attributes
+    ----------
+    trial : Trial
+        The record the window is in (:func:`colloc.data.read_trial`).
+    rows : ndarray of int
+        The window's consecutive samples.
+    label : str
+        How progress reports name it (``"stride window 2/5, "``).
+    body_mass, height : float
+        The subject, for the model's segment parameters.
+    settings : SmootherSettings
+    """
+
+    trial: Any
+    rows: np.ndarray
+    label: str
+    body_mass: float
+    height: float
+    settings: SmootherSettings = field(default_factory=SmootherSettings)
+
+
+def smooth_window(job: WindowJob, progress: Progress | None = None) -> SmoothedGait:
+    """Smooth one window; the result pickles without its CasADi problem.
+
+    Parameters
+    ----------
+    job : WindowJob
+    progress : callable, optional
+        ``progress(stage, detail)``, each detail prefixed by the job's label.
+
+    Returns
+    -------
+    SmoothedGait
+
+    Raises
+    ------
+    SmootherError
+        When a stage of the window's smoother does not converge.
+    """
+    dynamics = gait_dynamics(job.body_mass, job.height)
+    smoother = GaitSmoother.from_trial(dynamics, job.trial, job.rows, job.settings)
+
+    def report(stage: str, detail: str) -> None:
+        if progress is not None:
+            progress(stage, f"{job.label}{detail}")
+
+    return smoother.run(progress=report)
+
+
+def smooth_windows(
+    jobs: list[WindowJob],
+    progress: Progress | None = None,
+    map_windows: WindowMap | None = None,
+) -> list[SmoothedGait]:
+    """Smooth every window: one after another in this process (with each stage's progress),
+    or through ``map_windows`` (each window's end reported as it is gathered).
+
+    Parameters
+    ----------
+    jobs : list of WindowJob
+    progress : callable, optional
+    map_windows : callable, optional
+        ``map_windows(smooth_window, jobs)``, e.g. a Dask client's map and gather.
+
+    Returns
+    -------
+    list of SmoothedGait
+        In the jobs' order.
+    """
+    if map_windows is None:
+        return [smooth_window(job, progress) for job in jobs]
+    results = list(map_windows(smooth_window, jobs))
+    if progress is not None:
+        for job, result in zip(jobs, results, strict=True):
+            progress("windows", f"{job.label}{result.stages[-1].describe()}")
+    return results
