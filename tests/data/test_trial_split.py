@@ -113,3 +113,18 @@ def test_stride_windows_refuse_what_cannot_be_cut():
         stride_windows(times, [0.1, 0.5], 1.5)
     with pytest.raises(ValueError, match="times: expected at least two increasing"):
         stride_windows(times[::-1], [0.1, 0.5], 1)
+
+
+def test_take_rows_keeps_the_strikes_inside_and_its_own_metadata():
+    from colloc.data.split import take_rows
+
+    trial = make_trial()
+    trial.metadata["nested"] = {"a": [1]}
+    piece = take_rows(trial, np.arange(250, 500))  # 2.5 .. 4.99 s
+    np.testing.assert_array_equal(piece.time, trial.time[250:500])
+    assert list(piece.signals.index) == list(range(250))
+    np.testing.assert_array_equal(piece.signals.to_numpy(), trial.signals.iloc[250:500].to_numpy())
+    np.testing.assert_allclose(piece.right_heel_strikes, [2.7, 3.8, 4.9])
+    np.testing.assert_allclose(piece.left_heel_strikes, [3.25, 4.35])
+    piece.metadata["nested"]["a"].append(2)
+    assert trial.metadata["nested"] == {"a": [1]}  # a copy, not shared

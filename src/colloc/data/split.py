@@ -57,17 +57,10 @@ def split(trial: Trial, fit_fraction: float = 0.75) -> tuple[Trial, Trial]:
             f"{num_samples - num_fit} validation samples; each part needs at least 2"
         )
     parts = []
-    for part, rows in (("fit", slice(0, num_fit)), ("validate", slice(num_fit, None))):
-        time = trial.time[rows]
-        strikes = {}
-        for side in SIDES:
-            all_strikes = getattr(trial, f"{side}_heel_strikes")
-            inside = (all_strikes >= time[0]) & (all_strikes <= time[-1])
-            strikes[side] = all_strikes[inside]
-        metadata = copy.deepcopy(trial.metadata)
-        metadata["split"] = {"part": part, "fit_fraction": float(fit_fraction)}
-        signals = trial.signals.iloc[rows].reset_index(drop=True)
-        parts.append(Trial(time, signals, strikes["right"], strikes["left"], metadata))
+    for part, rows in (("fit", np.arange(num_fit)), ("validate", np.arange(num_fit, num_samples))):
+        piece = take_rows(trial, rows)
+        piece.metadata["split"] = {"part": part, "fit_fraction": float(fit_fraction)}
+        parts.append(piece)
     fit, validate = parts
     strides = {
         "fit": _count_strides(fit.right_heel_strikes),
@@ -88,6 +81,31 @@ def split(trial: Trial, fit_fraction: float = 0.75) -> tuple[Trial, Trial]:
             f"fit fraction"
         )
     return fit, validate
+
+
+def take_rows(trial: Trial, rows: np.ndarray) -> Trial:
+    """Consecutive samples of a trial as a trial of its own.
+
+    Parameters
+    ----------
+    trial : Trial
+    rows : ndarray of int
+        Consecutive sample indices (at least two).
+
+    Returns
+    -------
+    Trial
+        Its times and signals, the heel strikes inside its time range, and a deep copy of
+        the metadata.
+    """
+    rows = np.asarray(rows)
+    time = trial.time[rows]
+    strikes = {}
+    for side in SIDES:
+        all_strikes = getattr(trial, f"{side}_heel_strikes")
+        strikes[side] = all_strikes[(all_strikes >= time[0]) & (all_strikes <= time[-1])]
+    signals = trial.signals.iloc[rows].reset_index(drop=True)
+    return Trial(time, signals, strikes["right"], strikes["left"], copy.deepcopy(trial.metadata))
 
 
 def stride_windows(

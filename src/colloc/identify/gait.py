@@ -45,7 +45,7 @@ import numpy as np
 from colloc.control.gain_scheduled import GainScheduled
 from colloc.data.columns import JOINT_ANGLE_COLUMNS, JOINT_RATE_COLUMNS, TORQUE_COLUMNS
 from colloc.data.phase import causal_gait_phase, unwrapped_gait_phase
-from colloc.data.split import split, stride_windows
+from colloc.data.split import split, stride_windows, take_rows
 from colloc.data.trial import Trial, read_trial
 from colloc.identify.direct import fit_gain_schedule, smooth_with_derivatives
 from colloc.identify.gait_settings import DEFAULT_POINTS, GaitIdentifySettings
@@ -389,8 +389,9 @@ def _smoother_fit(c: _FitContext) -> _Fit:
     body = (float(meta.get("body_mass", 75.0)), float(meta.get("height", 1.8)))
     jobs = [
         WindowJob(
-            data.fit,
-            data.rows[first:stop],
+            # the window's samples alone: what travels to a worker
+            take_rows(data.fit, data.rows[first:stop]),
+            np.arange(stop - first),
             "" if len(windows) == 1 else f"stride window {k + 1}/{len(windows)}, ",
             *body,
         )
