@@ -89,3 +89,38 @@ def test_per_output_is_refused_with_the_sandwich(fits):
     sol = problem.solve(problem.initial_guess(clean, {k: 8.0, c: 0.3}))
     with pytest.raises(ValueError, match="per_output: only for method='kkt'"):
         parameter_uncertainty(problem, sol, method="sandwich", per_output=True)
+
+
+def test_per_output_with_priors_needs_absolute_tracking_weights():
+    """With a process-noise prior (weight ``1 / sigma_w^2``) the tracking weights must be
+    ``1 / sigma^2`` as well: relative weights (1 for a signal with 1 mm noise) put the data in
+    other units than the prior, and per_output refuses by name instead of reporting errors
+    two orders of magnitude off. Absolute weights pass and give errors of the KKT size."""
+    w = dynamicsymbols("w")
+    model = Model.from_equations(
+        [x.diff(t) - v, v.diff(t) + c * v + k * x - w], [x, v], unknown_inputs=[w]
+    )
+    clean = truth()
+    rng = np.random.default_rng(3)
+    data = {y: clean[y] + SIGMAS[y] * rng.standard_normal(TIMES.size) for y in clean}
+    results = {}
+    for name, weights in (
+        ("relative", {x: 1.0, v: 1.0}),
+        ("absolute", {y: s**-2 for y, s in SIGMAS.items()}),
+    ):
+        problem = Problem(
+            model, TIMES, objective=Tracking(data, weights), process_noise={w: 0.05}, cache=False
+        )
+        sol = problem.solve(problem.initial_guess({x: data[x], v: clean[v]}, {k: 8.0, c: 0.3}))
+        assert sol.success
+        try:
+            results[name] = parameter_uncertainty(problem, sol, per_output=True)
+        except ValueError as error:
+            results[name] = error
+    refused = results["relative"]
+    assert isinstance(refused, ValueError)
+    assert "per_output: the priors of process_noise / measured_inputs" in str(refused)
+    assert "variance per unit weight is x (" in str(refused) and "relative" in str(refused)
+    accepted = results["absolute"]
+    assert not isinstance(accepted, ValueError) and accepted.method == "kkt per output"
+    assert 0 < accepted.standard_errors[k] < 0.5  # K_TRUE = 9: a finite, small error

@@ -127,7 +127,9 @@ def parameter_uncertainty(
         ``[K^-1]_p,: (sum_i 4 w_i^2 v_i grad r_i grad r_i^T) [K^-1]_:,p`` with ``v_i`` the
         sample's variance: right whatever the weights, when the noise is white. The
         priors of ``process_noise`` and ``measured_inputs`` keep their given variances
-        (their weights are taken as ``1 / sigma^2``). ``noise_variance`` is then the
+        (their weights are taken as ``1 / sigma^2``), so with priors the tracking weights
+        must be ``1 / sigma^2`` too: a tracked signal whose variance per unit weight is
+        outside :data:`PRIOR_UNIT_RANGE` is refused by name. ``noise_variance`` is then the
         pooled value, for reference.
 
     Returns
@@ -242,6 +244,12 @@ def _choose_method(
     )
 
 
+#: Variance per unit weight of a tracked signal that is taken as absolute weighting
+#: (``1 / sigma^2`` up to its noise level being off by a factor of ten) when priors are
+#: present; outside it, per_output refuses (relative weights made SEs 120-170x too large).
+PRIOR_UNIT_RANGE = (1e-2, 1e2)
+
+
 def _per_output_covariance(
     problem: Problem, z: np.ndarray, kkt: _ReducedKKT, dof_share: float
 ) -> np.ndarray:
@@ -253,6 +261,8 @@ def _per_output_covariance(
     q = len(problem.partition.unknown_parameters)
     cov = np.zeros((q, q))
     signals = tracking_residuals(problem, z)
+    has_priors = any(signal.kind != "tracking" for signal in signals)
+    mismatched: list[str] = []
     for cols, signal in zip(signal_columns(problem), signals, strict=True):
         # this signal alone, with its weights and its term's quadrature factors;
         # d/dz [w (y - d)^2 - w (y - d - 1)^2] = 2 w grad y: the sample's gradient factor
@@ -266,6 +276,8 @@ def _per_output_covariance(
         variance = 1.0  # a prior's weight is 1 / sigma^2
         if signal.kind == "tracking":
             variance = float(np.sum(w * r**2) / (dof_share * np.count_nonzero(used)))
+            if has_priors and not PRIOR_UNIT_RANGE[0] <= variance <= PRIOR_UNIT_RANGE[1]:
+                mismatched.append(f"{signal.name} ({variance:.3g})")
         # sample k's residual has variance v_k = variance / w_k
         root = np.where(used, np.sqrt(variance / np.where(used, w, 1.0)), 0.0)
         vals = slope * root[:, None]
@@ -275,6 +287,17 @@ def _per_output_covariance(
         ).tocsc()
         U = kkt.parameter_rows(A)
         cov += U @ U.T
+    if mismatched:
+        # the fit itself weighed the priors against data in other units: no covariance of
+        # it is honest, so none is given
+        raise ValueError(
+            "per_output: the priors of process_noise / measured_inputs are weighted 1 / sigma^2 "
+            "(absolute), but the tracked signals' variance per unit weight is "
+            f"{', '.join(mismatched)}, not about 1: their weights are relative, so the fit "
+            "balanced priors and data in different units. Give the tracking weights as "
+            "1 / sigma^2 of each signal's noise (then per_output refines them), or drop the "
+            "priors"
+        )
     return 0.5 * (cov + cov.T)
 
 
