@@ -234,3 +234,47 @@ def test_disturbance_on_an_input_is_added_to_it_before_the_controller_closes_the
     law = model.close_loop(StateFeedback.symbolic(1, 2)).residual[1]
     assert sm.simplify(closed.residual[1] - (law - w)) == 0
     assert closed.unknown_inputs == (w,)
+
+
+def test_replace_data_swaps_measured_inputs_and_process_noise_like_a_fresh_build():
+    """A Monte Carlo over noisy measured inputs, or a sweep over the disturbance's level,
+    without rebuilding: the problem with swapped data has the objective, gradient and
+    defects of a problem built with them, and the solve gives the fresh build's estimate."""
+    rng = np.random.default_rng(11)
+    model = plant().with_disturbances({1: w})
+    measured = realisation(3)
+
+    def build(force, sigma_f, sigma_w):
+        return Problem(
+            model,
+            TIMES,
+            measured_inputs={F: (force, sigma_f)},
+            process_noise={w: sigma_w},
+            known_parameters={m: MASS},
+            objective=Tracking({x: measured}, 1.0 / SIGMA_Y**2),
+            cache=False,
+        )
+
+    swapped = build(FORCE, 0.1, SIGMA_W)
+    noisy_force = FORCE + 0.3 * rng.standard_normal(N)
+    swapped.replace_data(measured_inputs={F: (noisy_force, 0.3)}, process_noise={w: 0.5})
+    fresh = build(noisy_force, 0.3, 0.5)
+    z = fresh.initial_guess(state_guess(measured), {c: 1.0, k: 10.0})
+    np.testing.assert_array_equal(
+        swapped.initial_guess(state_guess(measured), {c: 1.0, k: 10.0}), z
+    )
+    assert swapped.nlp.objective(z) == pytest.approx(fresh.nlp.objective(z), rel=1e-12)
+    np.testing.assert_allclose(
+        swapped.nlp.gradient(z), fresh.nlp.gradient(z), rtol=1e-12, atol=1e-12
+    )
+    np.testing.assert_allclose(swapped.defects(z), fresh.defects(z), atol=1e-12)
+    a, b = swapped.solve(z, print_level=0), fresh.solve(z, print_level=0)
+    for p in (c, k):
+        assert a.parameters[p] == pytest.approx(b.parameters[p], rel=1e-9)
+    with pytest.raises(ProblemDefinitionError, match="measured_inputs: expected the same inputs"):
+        swapped.replace_data(measured_inputs={})
+    with pytest.raises(ProblemDefinitionError, match=r"process_noise\[w\]: expected a finite .*-1"):
+        swapped.replace_data(process_noise={w: -1.0})
+    # the refused swaps changed nothing
+    assert swapped.nlp.objective(z) == pytest.approx(fresh.nlp.objective(z), rel=1e-12)
+    assert swapped.process_noise == fresh.process_noise

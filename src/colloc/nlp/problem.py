@@ -192,21 +192,29 @@ class Problem:
         self.build_time = time.perf_counter() - t_start
         """Seconds to construct the problem, including :attr:`derive_time`."""
 
-    def _noise_terms(self, num_nodes: int) -> list[ObjectiveTerm]:
-        """The tracking terms of the measured inputs and the disturbance penalty."""
+    def _noise_terms(
+        self,
+        num_nodes: int,
+        measured_inputs: Mapping[sm.Basic, tuple[np.ndarray, float]] | None = None,
+        process_noise: Mapping[sm.Basic, float] | None = None,
+    ) -> list[ObjectiveTerm]:
+        """The tracking terms of the measured inputs and the disturbance penalty (the
+        problem's own, or the ones given)."""
+        measured = self.measured_inputs if measured_inputs is None else measured_inputs
+        noise = self.process_noise if process_noise is None else process_noise
         terms: list[ObjectiveTerm] = []
-        if self.measured_inputs:
+        if measured:
             terms.append(
                 Tracking(
-                    {r: v for r, (v, _) in self.measured_inputs.items()},
-                    {r: 1.0 / s**2 for r, (_, s) in self.measured_inputs.items()},
+                    {r: v for r, (v, _) in measured.items()},
+                    {r: 1.0 / s**2 for r, (_, s) in measured.items()},
                 )
             )
-        if self.process_noise:
+        if noise:
             terms.append(
                 Tracking(
-                    {w: np.zeros(num_nodes) for w in self.process_noise},
-                    {w: 1.0 / s**2 for w, s in self.process_noise.items()},
+                    {w: np.zeros(num_nodes) for w in noise},
+                    {w: 1.0 / s**2 for w, s in noise.items()},
                 )
             )
         return terms
@@ -247,6 +255,8 @@ class Problem:
         objective: ObjectiveTerm | Sequence[ObjectiveTerm] | None = None,
         known_trajectories: Mapping[sm.Basic, Any] | None = None,
         known_parameters: Mapping[sm.Symbol, Any] | None = None,
+        measured_inputs: Mapping[sm.Basic, Any] | None = None,
+        process_noise: Mapping[sm.Basic, Any] | None = None,
     ) -> None:
         """Swap in new measurements, known trajectories or known values without rebuilding.
 
@@ -254,7 +264,10 @@ class Problem:
         and the same parameters must be known; only their data change, which the built
         functions take as inputs (e.g. a continuation in a contact stiffness). A known
         trajectory given as a plain array keeps the rule between the nodes it was built
-        with; a :class:`colloc.KnownTrajectory` sets its own.
+        with; a :class:`colloc.KnownTrajectory` sets its own. ``measured_inputs`` (new
+        values and standard deviations) and ``process_noise`` (new standard deviations) must
+        name the same inputs as the built problem's: a Monte Carlo over noisy measured
+        inputs swaps them like any measurement.
 
         Raises
         ------
@@ -284,11 +297,36 @@ class Problem:
                     "known_parameters: expected values for the same parameters as the built "
                     f"problem ({len(self.known_parameters)}), found {len(values)}"
                 )
+        measured = self.measured_inputs
+        if measured_inputs is not None:
+            measured = check_measured_inputs(
+                self.model, measured_inputs, self.known_trajectories, N, problems
+            )
+            if set(measured) != set(self.measured_inputs) and not problems:
+                problems.append(
+                    "measured_inputs: expected the same inputs as the built problem "
+                    f"{[name_of(r) for r in self.measured_inputs]}, found "
+                    f"{[name_of(r) for r in measured]}"
+                )
+        noise = self.process_noise
+        if process_noise is not None:
+            noise = check_process_noise(self.model, process_noise, problems)
+            if set(noise) != set(self.process_noise) and not problems:
+                problems.append(
+                    "process_noise: expected the same disturbances as the built problem "
+                    f"{[name_of(w) for w in self.process_noise]}, found "
+                    f"{[name_of(w) for w in noise]}"
+                )
         terms = self._node_terms
-        if objective is not None:
-            terms = []
-            new_terms = check_objective(objective, problems) + self._noise_terms(N)
-            for i, term in enumerate(new_terms):
+        own = len(self._noise_terms(N))  # the measured inputs' and disturbances' terms
+        if objective is not None or measured_inputs is not None or process_noise is not None:
+            user = check_objective(objective, problems) if objective is not None else None
+            new_terms = self._noise_terms(N, measured, noise)
+            if user is not None:
+                new_terms = user + new_terms
+            kept = [] if user is not None else self._node_terms[: len(self._node_terms) - own]
+            terms = list(kept)
+            for i, term in enumerate(new_terms, start=len(kept)):
                 try:
                     terms.append(term.node_term(self.model, self.grid.times, i))
                 except ValueError as exc:
@@ -311,6 +349,7 @@ class Problem:
                 }
             )
         self.known_parameters = values
+        self.measured_inputs, self.process_noise = measured, noise
         self._node_terms = terms
         self.nlp = self._assemble(self._templates, terms, self._ic_locs)
 
