@@ -420,3 +420,36 @@ def test_the_default_chooses_the_honest_method_and_says_why():
     short_problem, short_solution, _ = _decay(15)
     short = parameter_uncertainty(short_problem, short_solution)
     assert short.method == "kkt" and "too few for the sandwich" in short.reason
+
+
+@pytest.mark.parametrize("method", ["kkt", "sandwich", "auto"])
+def test_a_parameter_held_by_a_bound_gets_no_standard_error(method):
+    """Data of ``x' = -0.8 x + 0.3`` fitted with the rate bounded by 0.5: the solve ends on
+    the bound, which ``status.reliable`` and ``at_bounds`` say; its standard error is NaN
+    (neither a zero nor a large number that reads as precision), the free offset keeps its
+    own, and the reason says why."""
+    t = dynamicsymbols._t
+    x = dynamicsymbols("x")
+    a, b = sm.symbols("a b")
+    model = Model.from_equations([x.diff(t) + a * x - b], [x])
+    times = np.linspace(0.0, 6.0, 301)
+    exact = 0.3 / 0.8 + (2.0 - 0.3 / 0.8) * np.exp(-0.8 * times)
+    measured = exact + 0.01 * np.random.default_rng(4).standard_normal(times.size)
+    results = {}
+    for name, bounds in (("free", {}), ("held", {a: (0.0, 0.5)})):
+        problem = Problem(
+            model, times, objective=Tracking({x: measured}), bounds=bounds, cache=False
+        )
+        solution = problem.solve(problem.initial_guess({x: measured}, {a: 0.3, b: 0.1}))
+        assert solution.success
+        results[name] = (solution, parameter_uncertainty(problem, solution, method=method))
+    free_solution, free = results["free"]
+    assert free_solution.status.reliable and free.at_bounds == ()
+    assert all(np.isfinite(se) and se > 0 for se in free.standard_errors.values())
+    held_solution, held = results["held"]
+    assert held_solution.parameters[a] == pytest.approx(0.5, abs=1e-6)
+    assert held_solution.status.at_bounds == ("a",) and not held_solution.status.reliable
+    assert held.at_bounds == (a,) and np.isnan(held.standard_errors[a])
+    assert np.isfinite(held.standard_errors[b]) and held.standard_errors[b] > 0
+    assert np.all(np.isnan(held.covariance[0])) and np.isfinite(held.covariance[1, 1])
+    assert "a at a bound: no standard error" in held.reason

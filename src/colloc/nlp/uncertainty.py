@@ -17,6 +17,8 @@ whether a planned experiment can identify the parameters at all.
 
 from __future__ import annotations
 
+import dataclasses
+import math
 import warnings
 from collections.abc import Sequence
 from dataclasses import dataclass
@@ -27,6 +29,7 @@ import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 import sympy as sm
 
+from colloc.model.symbols import name_of
 from colloc.nlp.residuals import SignalResiduals, signal_columns, tracking_residuals
 
 if TYPE_CHECKING:
@@ -64,6 +67,11 @@ class ParameterUncertainty:
         Number of time blocks of the sandwich estimate.
     reason : str
         Why ``method`` is the one used (asked for, or the automatic choice's grounds).
+    at_bounds : tuple of sympy.Symbol
+        Parameters the solve left at one of their bounds (``solution.status.at_bounds``):
+        the bound holds them, not the data, so their standard error is NaN and their row
+        and column of ``covariance`` too; the others' are computed as if they were free
+        (the larger, unconditional spread).
     """
 
     parameters: tuple[sm.Symbol, ...]
@@ -74,6 +82,7 @@ class ParameterUncertainty:
     method: str = "kkt"
     blocks: int | None = None
     reason: str = ""
+    at_bounds: tuple[sm.Symbol, ...] = ()
 
 
 def parameter_uncertainty(
@@ -182,10 +191,12 @@ def parameter_uncertainty(
     sigma2 = float(solution.stats["objective"]) / dof
     if starts is None and per_output:
         cov = _per_output_covariance(problem, solution.z, kkt, dof / num_measurements)
-        return _result(problem, cov, sigma2, dof, "kkt per output", None, reason)
+        return _mark_bounds(
+            solution, _result(problem, cov, sigma2, dof, "kkt per output", None, reason)
+        )
     if starts is None:
         cov = 2.0 * sigma2 * kkt.parameter_block()
-        return _result(problem, cov, sigma2, dof, "kkt", None, reason)
+        return _mark_bounds(solution, _result(problem, cov, sigma2, dof, "kkt", None, reason))
     if per_output:
         raise ValueError("per_output: only for method='kkt' (the sandwich needs no variances)")
     G = _block_gradients(problem, solution.z, starts)
@@ -207,7 +218,9 @@ def parameter_uncertainty(
     U = kkt.parameter_rows(G)
     nb = starts.size
     cov += nb / (nb - 1) * (U @ U.T)
-    return _result(problem, 0.5 * (cov + cov.T), sigma2, dof, "sandwich", nb, reason)
+    return _mark_bounds(
+        solution, _result(problem, 0.5 * (cov + cov.T), sigma2, dof, "sandwich", nb, reason)
+    )
 
 
 def _choose_method(
@@ -466,6 +479,31 @@ class _ReducedKKT:
         G = sp.csc_matrix(G)
         Gs, Gp = G[: self.p0], G[self.p0 :].toarray()
         return self.S_inv @ (Gp - np.asarray((Gs.T @ self.X[: self.p0]).T))
+
+
+def _mark_bounds(solution: Solution, result: ParameterUncertainty) -> ParameterUncertainty:
+    """NaN for the standard errors (and covariance rows) of the parameters a bound holds."""
+    held = set(solution.status.at_bounds)
+    index = [i for i, p in enumerate(result.parameters) if name_of(p) in held]
+    if not index:
+        return result
+    cov = result.covariance.copy()
+    cov[index, :] = np.nan
+    cov[:, index] = np.nan
+    symbols = tuple(result.parameters[i] for i in index)
+    note = (
+        f"{', '.join(map(name_of, symbols))} at a bound: no standard error (the bound holds "
+        "it, not the data; widen the bound or check the model), the others' as if it were free"
+    )
+    return dataclasses.replace(
+        result,
+        standard_errors={
+            p: (math.nan if p in symbols else se) for p, se in result.standard_errors.items()
+        },
+        covariance=cov,
+        reason=f"{result.reason}; {note}" if result.reason else note,
+        at_bounds=symbols,
+    )
 
 
 def _result(

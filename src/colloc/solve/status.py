@@ -30,6 +30,12 @@ class SolveStatus:
     at_bounds: tuple[str, ...] = ()
     notes: tuple[str, ...] = ()
 
+    @property
+    def reliable(self) -> bool:
+        """Whether the result is an estimate to use as one: an optimum (``success``) with no
+        parameter held by a bound (``at_bounds`` empty)."""
+        return self.success and not self.at_bounds
+
     def __str__(self) -> str:
         text = f"{self.name} ({self.code})"
         text = text if not self.hint else f"{text}: {self.hint}"
