@@ -77,3 +77,25 @@ def test_a_fit_that_leaves_systematic_residuals_says_so_and_a_good_one_does_not(
     bounded = decay({k: (0.0, 1.0)})
     at_bound = bounded.solve(bounded.initial_guess({x: data}, {k: 0.5}), print_level=0)
     assert at_bound.status.at_bounds == ("k",) and len(at_bound.status.notes) == 1
+
+
+def test_printed_stats_summarise_the_log_and_keep_the_values_whole():
+    import json
+
+    t = dynamicsymbols._t
+    x = dynamicsymbols("x")
+    a = sm.symbols("a")
+    model = Model.from_equations([x.diff(t) + a * x], [x])
+    times = np.linspace(0.0, 2.0, 41)
+    measured = 2.0 * np.exp(-0.7 * times)
+    problem = Problem(model, times, objective=Tracking({x: measured}), cache=False)
+    solution = problem.solve(problem.initial_guess({x: measured}, {a: 0.1}))
+    stats = solution.stats
+    log = stats["ipopt_log"]
+    assert isinstance(log, str) and log.count("\n") > 20  # the whole log is there
+    printed = str(stats)
+    assert "<IPOPT log: " in printed and "iterations>" in printed
+    longest = max(log.splitlines(), key=len)
+    assert longest not in printed and len(printed) < len(log)
+    assert f"'iterations': {stats['iterations']}" in printed
+    assert isinstance(stats, dict) and json.loads(json.dumps(stats["times"])) == stats["times"]

@@ -39,9 +39,13 @@ class Solution:
         watchdog's fallback; tracked signals whose residuals are systematic, not noise,
         as a worse local optimum or an unmodelled disturbance leaves them). Both are in
         ``str(status)`` and ``stats["message"]``.
-    stats : dict
-        ``iterations``, ``objective``, ``constraint_violation``, ``status``, ``message``,
-        ``hint``, ``build_time``, ``solve_time``, ``cache_hit``, ``ipopt_log``, ...
+    stats : SolveStats
+        A dict: ``iterations``, ``objective``, ``constraint_violation``, ``status``,
+        ``message``, ``hint``, ``build_time`` (the problem's construction: derivation or cache
+        load and assembly, not Python's imports nor the model's own derivation by SymPy
+        mechanics), ``times`` (``derive``, ``build``, ``solve``), ``solve_time``,
+        ``cache_hit``, ``ipopt_log``, ``history``, ...; printed, the log and the history are
+        summarised (the values are whole).
     z : ndarray
         The free vector at the solution.
     """
@@ -106,7 +110,7 @@ class Solution:
             params,
             problem.partition.unknown_parameters,
             status,
-            stats,
+            SolveStats(stats),
             result.x.copy(),
             result.multipliers,
         )
@@ -141,6 +145,31 @@ class Solution:
             f"objective={self.stats['objective']:.6g}, "
             f"unknown parameters={len(self.unknown_parameters)})"
         )
+
+
+class SolveStats(dict):  # type: ignore[type-arg]
+    """A solve's statistics: a plain dict whose printed form summarises the IPOPT log and the
+    iteration history instead of dumping them (``stats["ipopt_log"]`` is the whole log)."""
+
+    def __repr__(self) -> str:
+        shown = {}
+        for key, value in self.items():
+            if key == "ipopt_log" and isinstance(value, str):
+                shown[key] = _Elided(f"<IPOPT log: {value.count(chr(10)) + 1} lines>")
+            elif key == "history" and isinstance(value, list | tuple):
+                shown[key] = _Elided(f"<{len(value)} iterations>")
+            else:
+                shown[key] = value
+        return repr(shown)
+
+    __str__ = __repr__
+
+
+class _Elided(str):
+    """A placeholder printed without quotes."""
+
+    def __repr__(self) -> str:
+        return str(self)
 
 
 def _at_bounds(problem: Problem, estimates: np.ndarray) -> tuple[str, ...]:
