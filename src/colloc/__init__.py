@@ -29,6 +29,8 @@ _EXPORTS = {
     "Tracking": "colloc.nlp",
     "ResidualDiagnostics": "colloc.nlp.residuals",
     "residual_diagnostics": "colloc.nlp.residuals",
+    "StartsReport": "colloc.nlp.starts",
+    "other_starts": "colloc.nlp.starts",
     "ParameterUncertainty": "colloc.nlp.uncertainty",
     "cramer_rao_bound": "colloc.nlp.uncertainty",
     "parameter_uncertainty": "colloc.nlp.uncertainty",
@@ -54,6 +56,7 @@ if TYPE_CHECKING:  # for type checkers; re-exported through __all__
         Tracking,
     )
     from colloc.nlp.residuals import ResidualDiagnostics, residual_diagnostics
+    from colloc.nlp.starts import StartsReport, other_starts
     from colloc.nlp.uncertainty import (
         ParameterUncertainty,
         cramer_rao_bound,
