@@ -255,7 +255,7 @@ def identify_gait(
     # the trial's own controller, when it records one, beside them: the VAF a consistent
     # estimate approaches (the direct fit's attenuated gains can predict noisy states better)
     compared = {"collocation": collocation, "direct": direct} | ({"truth": truth} if truth else {})
-    validation = _validate(settings, data, dyn, gs, compared)
+    validation = _validate(settings, data, dyn, gs, compared, say, map_windows)
     lap("validate")
 
     return GaitIdentification(
@@ -377,26 +377,12 @@ def _smoother_fit(c: _FitContext) -> _Fit:
     (:mod:`colloc.identify.gait_controller_fit`)."""
     from colloc.identify.gait_controller_fit import fit_schedule_with_errors, instruments_pay
     from colloc.identify.gait_smoother import trial_noise_std
-    from colloc.identify.gait_windows import WindowJob, smooth_windows
+    from colloc.identify.gait_windows import smooth_windows
 
     settings, data, gs = c.settings, c.data, c.gs
     meta = data.trial.metadata
-    windows = (
-        [(0, data.rows.size)]
-        if settings.window_strides is None
-        else stride_windows(c.t, data.trial.right_heel_strikes, settings.window_strides)
-    )
-    body = (float(meta.get("body_mass", 75.0)), float(meta.get("height", 1.8)))
-    jobs = [
-        WindowJob(
-            # the window's samples alone: what travels to a worker
-            take_rows(data.fit, data.rows[first:stop]),
-            np.arange(stop - first),
-            "" if len(windows) == 1 else f"stride window {k + 1}/{len(windows)}, ",
-            *body,
-        )
-        for k, (first, stop) in enumerate(windows)
-    ]
+    windows = _windows(settings, c.t, data.trial.right_heel_strikes)
+    jobs = _window_jobs(data.fit, data.rows, windows, meta, "stride window")
     where = "" if c.map_windows is None else " on the workers"
     c.say("smooth", f"{len(jobs)} window(s){where}: backward Euler, midpoint, continuation")
     results = smooth_windows(jobs, _prefixed(c.say, "smooth"), c.map_windows)
@@ -467,6 +453,38 @@ def _smoother_fit(c: _FitContext) -> _Fit:
         _summed_size([r.size for r in results], gs),
         np.concatenate([r.states[:, 3:9] for r in results]),
     )
+
+
+def _windows(
+    settings: GaitIdentifySettings, times: np.ndarray, strikes: np.ndarray
+) -> list[tuple[int, int]]:
+    """The smoother's windows of a record: all of it, or ``settings.window_strides``."""
+    if settings.window_strides is None:
+        return [(0, times.size)]
+    return stride_windows(times, strikes, settings.window_strides)
+
+
+def _window_jobs(
+    part: Trial,
+    rows: np.ndarray,
+    windows: list[tuple[int, int]],
+    meta: dict[str, Any],
+    name: str,
+) -> list[Any]:
+    """One smoothing job per window of ``part``'s samples ``rows`` (each its own samples
+    alone: what travels to a worker)."""
+    from colloc.identify.gait_windows import WindowJob
+
+    body = (float(meta.get("body_mass", 75.0)), float(meta.get("height", 1.8)))
+    return [
+        WindowJob(
+            take_rows(part, rows[first:stop]),
+            np.arange(stop - first),
+            "" if len(windows) == 1 else f"{name} {k + 1}/{len(windows)}, ",
+            *body,
+        )
+        for k, (first, stop) in enumerate(windows)
+    ]
 
 
 def _prefixed(say: Progress, step: str) -> Progress:
@@ -907,6 +925,8 @@ def _validate(
     dyn: Any,
     gs: GainScheduled,
     controllers: dict[str, ControllerEstimate],
+    say: Progress,
+    map_windows: WindowMap | None = None,
 ) -> dict[str, Any]:
     """Torque VAF of each controller and the forward simulation on the held-out part."""
     part = data.held_out
@@ -925,7 +945,7 @@ def _validate(
         # the held-out states as the fit saw its own: the smoother's (the controller's
         # prediction from noisy measured states carries K times their noise, which favours
         # the attenuated gains of a least squares on noisy data)
-        bases["torque_vaf"] = _smoothed_held_out(settings, data, dyn, phase_all)
+        bases["torque_vaf"] = _smoothed_held_out(settings, data, phase_all, say, map_windows)
     else:
         bases["torque_vaf"] = bases["torque_vaf_measured_states"]
     for key, (phase, x, torque) in bases.items():
@@ -945,16 +965,24 @@ def _validate(
 
 
 def _smoothed_held_out(
-    settings: GaitIdentifySettings, data: _Data, dyn: Any, phase: np.ndarray
+    settings: GaitIdentifySettings,
+    data: _Data,
+    phase: np.ndarray,
+    say: Progress,
+    map_windows: WindowMap | None,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Phase, smoothed states and measured torques of the held-out part where the smoother's
-    scheme holds the dynamics (the held-out part smoothed like the fit window)."""
-    from colloc.identify.gait_smoother import GaitSmoother, SmootherSettings
+    scheme holds the dynamics (the held-out part smoothed like the fit window, in the same
+    windows and on the same workers)."""
+    from colloc.identify.gait_windows import smooth_windows
 
     part = data.held_out
     rows = np.arange(part.time.size)
-    result = GaitSmoother.from_trial(dyn, part, rows, SmootherSettings()).run()
-    at_t, at_states, _ = result.at_dynamics()
+    windows = _windows(settings, part.time, part.right_heel_strikes)
+    jobs = _window_jobs(part, rows, windows, data.trial.metadata, "held-out window")
+    results = smooth_windows(jobs, _prefixed(say, "validate"), map_windows)
+    pieces = [result.at_dynamics() for result in results]
+    at_t, at_states = (np.concatenate([p[i] for p in pieces]) for i in (0, 1))
     at_phase = np.interp(at_t, part.time, phase, left=np.nan, right=np.nan)
     measured = part.signals[list(TORQUE_COLUMNS)].to_numpy(dtype=float)
     at_torques = np.column_stack([np.interp(at_t, part.time, m) for m in measured.T])
