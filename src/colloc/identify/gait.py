@@ -438,10 +438,11 @@ def _smoother_fit(c: _FitContext) -> _Fit:
     )
     c.lap("controller")
     lasts = [r.stages[-1] for r in results]
+    failed = [last for last in lasts if not last.success]
     return _Fit(
         ControllerEstimate(est.Tstar, est.K, est.Tstar_se, est.K_se, est.Tstar_bound, est.K_bound),
         {
-            "status": lasts[-1].status,
+            "status": (failed or lasts)[-1].status,  # a window's failure, else the last's
             # a failed continuation step is halved, not fatal
             "success": all(last.success for last in lasts),
             "iterations": int(sum(s.iterations for r in results for s in r.stages)),
