@@ -302,21 +302,11 @@ class Problem:
             measured = check_measured_inputs(
                 self.model, measured_inputs, self.known_trajectories, N, problems
             )
-            if set(measured) != set(self.measured_inputs) and not problems:
-                problems.append(
-                    "measured_inputs: expected the same inputs as the built problem "
-                    f"{[name_of(r) for r in self.measured_inputs]}, found "
-                    f"{[name_of(r) for r in measured]}"
-                )
+            _same_keys("measured_inputs", "inputs", self.measured_inputs, measured, problems)
         noise = self.process_noise
         if process_noise is not None:
             noise = check_process_noise(self.model, process_noise, problems)
-            if set(noise) != set(self.process_noise) and not problems:
-                problems.append(
-                    "process_noise: expected the same disturbances as the built problem "
-                    f"{[name_of(w) for w in self.process_noise]}, found "
-                    f"{[name_of(w) for w in noise]}"
-                )
+            _same_keys("process_noise", "disturbances", self.process_noise, noise, problems)
         terms = self._node_terms
         own = len(self._noise_terms(N))  # the measured inputs' and disturbances' terms
         if objective is not None or measured_inputs is not None or process_noise is not None:
@@ -728,4 +718,16 @@ class Problem:
         return (
             f"Problem({self.scheme!r}, N={lay.num_nodes}, variables={lay.num_variables}, "
             f"constraints={lay.num_constraints}, unknown parameters={shown})"
+        )
+
+
+def _same_keys(
+    option: str, what: str, built: Mapping[Any, Any], new: Mapping[Any, Any], problems: list[str]
+) -> None:
+    """Name the difference when ``new`` does not cover the built problem's ``built`` keys
+    (only once the new values are otherwise valid)."""
+    if set(new) != set(built) and not problems:
+        problems.append(
+            f"{option}: expected the same {what} as the built problem "
+            f"{[name_of(k) for k in built]}, found {[name_of(k) for k in new]}"
         )
