@@ -103,6 +103,12 @@ def test_stride_windows_tile_the_record_from_right_heel_strikes(per_window):
         assert per_window <= whole and (whole < 2 * per_window or len(windows) == 1)
     expected = 10 // per_window if 10 >= 2 * per_window else 1
     assert len(windows) == expected
+    # as even as whole strides allow: window lengths differ by at most one stride
+    wholes = [
+        np.count_nonzero((strikes >= times[a] - 1e-9) & (strikes <= times[min(b, 1200)] + 1e-9)) - 1
+        for a, b in windows
+    ]
+    assert max(wholes) - min(wholes) <= 1 and sum(wholes) == 10
 
 
 def test_stride_windows_refuse_what_cannot_be_cut():

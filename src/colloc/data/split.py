@@ -113,11 +113,12 @@ def stride_windows(
 ) -> list[tuple[int, int]]:
     """Cut a record into windows of whole strides, each from one right heel strike.
 
-    Windows are consecutive and disjoint and together hold every sample: window ``k`` runs
-    from the sample at strike ``k * strides_per_window`` to the sample before strike
-    ``(k + 1) * strides_per_window``; samples before the first strike join the first
-    window, and the strides left at the end (fewer than ``strides_per_window``) join the
-    last, so no window is shorter than ``strides_per_window`` strides.
+    Windows are consecutive and disjoint and together hold every sample: the record's
+    ``S`` whole strides are shared out over ``S // strides_per_window`` windows as evenly as
+    whole strides allow (each holds ``strides_per_window`` to ``2 strides_per_window - 1``
+    of them), each window from the sample at a right heel strike to the sample before the
+    next window's; samples before the first strike join the first window, those after the
+    last the last.
 
     Parameters
     ----------
@@ -154,8 +155,10 @@ def stride_windows(
     strikes = strikes[(strikes >= times[0]) & (strikes <= times[-1])]
     # the sample at or just after each strike
     starts = np.unique(np.searchsorted(times, strikes - 1e-9 * (times[1] - times[0])))
-    cuts = starts[::strides_per_window][1:]
-    if starts.size - 1 - (cuts.size) * strides_per_window < strides_per_window and cuts.size:
-        cuts = cuts[:-1]  # the strides left at the end join the last window
+    strides = starts.size - 1
+    count = max(strides // strides_per_window, 1)
+    # the strides shared out as evenly as whole strides allow (windows of equal work are
+    # what two workers finish together)
+    cuts = starts[np.round(np.arange(1, count) * strides / count).astype(int)]
     bounds = [0, *map(int, cuts), times.size]
     return [(bounds[k], bounds[k + 1]) for k in range(len(bounds) - 1)]
