@@ -313,7 +313,10 @@ def _assert_a_simulation_that_may_start(settings) -> None:
     assert settings.duration >= gait_settings.MIN_DURATION
     low, high = gait_settings.SPEED_RANGE
     assert low <= settings.speed <= high
-    assert settings.num_nodes <= gait_settings.MAX_NUM_NODES
+    nodes = settings.num_nodes  # None: the automatic refinement, at most its last
+    assert (max(gait_settings.AUTO_NUM_NODES) if nodes is None else nodes) <= (
+        gait_settings.MAX_NUM_NODES
+    )
     assert settings.num_points <= gait_settings.MAX_NUM_POINTS
     assert 0 <= settings.motor_noise <= gait_settings.MAX_MOTOR_NOISE
     assert settings.estimated_needs()["memory_bytes"] < 24 * 2**30
