@@ -498,15 +498,8 @@ def _prefixed(say: Progress, step: str) -> Progress:
 
 
 def _problem_size(problem: Any, gs: GainScheduled) -> dict[str, int]:
-    """Nodes, variables, constraints, controller parameters and nonzeros of a solved problem."""
-    return {
-        "nodes": int(problem.layout.num_nodes),
-        "variables": int(problem.layout.num_variables),
-        "constraints": int(problem.layout.num_constraints),
-        "parameters": len(gs.parameters),
-        "nnz_jacobian": int(problem.nlp.nnz_jacobian),
-        "nnz_hessian": int(problem.nlp.nnz_hessian),
-    }
+    """A solved problem's size with the controller's parameters."""
+    return problem.size | {"parameters": len(gs.parameters)}
 
 
 def _summed_size(sizes: list[dict[str, int]], gs: GainScheduled) -> dict[str, int]:

@@ -239,8 +239,7 @@ class SmoothedGait:
     scheme : Scheme or None
         The last stage's scheme.
     size : dict
-        The last stage's problem's ``nodes``, ``variables``, ``constraints``,
-        ``nnz_jacobian`` and ``nnz_hessian``.
+        The last stage's problem's size (:attr:`colloc.Problem.size`).
     """
 
     times: np.ndarray
@@ -872,11 +871,5 @@ class GaitSmoother:
             problem,
             np.asarray(z),
             scheme=problem.scheme,
-            size={
-                "nodes": int(lay.num_nodes),
-                "variables": int(lay.num_variables),
-                "constraints": int(lay.num_constraints),
-                "nnz_jacobian": int(problem.nlp.nnz_jacobian),
-                "nnz_hessian": int(problem.nlp.nnz_hessian),
-            },
+            size=problem.size,
         )

@@ -225,6 +225,18 @@ class Problem:
         and the process-noise penalty (see :class:`colloc.nlp.objective.NodeTerm`)."""
         return tuple(self._node_terms)
 
+    @property
+    def size(self) -> dict[str, int]:
+        """``nodes``, ``variables``, ``constraints``, ``nnz_jacobian``, ``nnz_hessian``."""
+        lay = self.layout
+        return {
+            "nodes": int(lay.num_nodes),
+            "variables": int(lay.num_variables),
+            "constraints": int(lay.num_constraints),
+            "nnz_jacobian": int(self.nlp.nnz_jacobian),
+            "nnz_hessian": int(self.nlp.nnz_hessian),
+        }
+
     # ---------------------------------------------------------------- layout
     def _make_layout(self) -> Layout:
         names = [name_of(x) for x in self.model.states]
@@ -308,13 +320,13 @@ class Problem:
             noise = check_process_noise(self.model, process_noise, problems)
             _same_keys("process_noise", "disturbances", self.process_noise, noise, problems)
         terms = self._node_terms
-        own = len(self._noise_terms(N))  # the measured inputs' and disturbances' terms
         if objective is not None or measured_inputs is not None or process_noise is not None:
-            user = check_objective(objective, problems) if objective is not None else None
-            new_terms = self._noise_terms(N, measured, noise)
-            if user is not None:
-                new_terms = user + new_terms
-            kept = [] if user is not None else self._node_terms[: len(self._node_terms) - own]
+            if objective is not None:  # every term built anew
+                kept, new_terms = [], check_objective(objective, problems)
+            else:  # the user's terms kept, the measured inputs' and disturbances' rebuilt
+                own = bool(self.measured_inputs) + bool(self.process_noise)
+                kept, new_terms = self._node_terms[: len(self._node_terms) - own], []
+            new_terms = new_terms + self._noise_terms(N, measured, noise)
             terms = list(kept)
             for i, term in enumerate(new_terms, start=len(kept)):
                 try:

@@ -95,15 +95,14 @@ def other_starts(
     if isinstance(seed, bool) or not isinstance(seed, int) or seed < 0:
         raise ValueError(f"seed: expected an integer >= 0, found {seed!r}")
     lay = problem.layout
-    names = lay.parameter_names
-    if not names:
+    if not lay.parameter_names:
         raise ValueError("problem: has no unknown parameters to start elsewhere")
     rng = np.random.default_rng(seed)
     lo, hi = problem.variable_bounds()
     p0 = lay.parameter_offset
     base = np.asarray(solution.z, dtype=float)
     reference = float(solution.stats["objective"])
-    best, lowest = solution, reference
+    lowest, lowest_solution = reference, solution
     objectives: list[float] = []
     starts: list[dict[Any, float]] = []
     for _ in range(count):
@@ -119,10 +118,9 @@ def other_starts(
         value = float(other.stats["objective"]) if other.success else float("nan")
         objectives.append(value)
         if other.success and value < lowest:
-            best, lowest = other, value
-    improved = lowest < reference * (1.0 - BETTER) - 1e-300
-    if not improved:
-        best = solution
+            lowest, lowest_solution = value, other
+    improved = lowest < reference * (1.0 - BETTER)
+    best = lowest_solution if improved else solution
     shown = ", ".join(f"{v:.6g}" for v in objectives)
     if improved:
         note = (
