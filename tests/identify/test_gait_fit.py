@@ -255,6 +255,17 @@ def test_windows_of_whole_strides_smooth_alone_and_share_the_controller(tmp_path
     for key in ("K_relative_error", "Tstar_relative_error", "fraction_within_3se"):
         assert workers[key] == pytest.approx(windows[key], rel=1e-9, abs=1e-12), key
     assert workers["fit_angle_rms"] == pytest.approx(windows["fit_angle_rms"], rel=1e-9)
+    # each window's cost and the process that smoothed it: in order, one after another, all
+    # here in one process, and over the workers' processes (not this one) with --workers
+    facts = windows["windows"]
+    assert len(facts) == size["windows"] and sum(f["nodes"] for f in facts) == size["nodes"]
+    assert all(a["stop"] < b["start"] for a, b in zip(facts, facts[1:], strict=False))
+    assert all(f["seconds"] > 0 and f["iterations"] > 0 for f in facts)
+    assert (
+        len({f["process"] for f in facts}) == 1 and len({f["process"] for f in one["windows"]}) == 1
+    )
+    spread = {f["process"] for f in workers["windows"]}
+    assert 1 <= len(spread) <= 2 and facts[0]["process"] not in spread
 
 
 def test_workers_need_stride_windows(capsys):

@@ -25,14 +25,15 @@ def identified(tmp_path_factory):
     is measured in benchmarks/gait_identify.py), uncertainty, validation, store, JSON."""
     out = tmp_path_factory.mktemp("identify")
     db = f"sqlite:///{out / 'runs.db'}"
+    plotted = [a for a in ARGS if a != "--no-plots"] + ["--out", str(out / "figures")]
     code = main(
-        ["gait", "identify", str(FIXTURE), *ARGS, "--db", db, "--json", str(out / "s.json")]
+        ["gait", "identify", str(FIXTURE), *plotted, "--db", db, "--json", str(out / "s.json")]
     )
-    return code, json.loads((out / "s.json").read_text()), db
+    return code, json.loads((out / "s.json").read_text()), db, out / "figures"
 
 
 def test_direct_start_recovers_the_known_controller_and_walks_the_held_out_part(identified):
-    code, summary, _ = identified
+    code, summary, _, _ = identified
     # exact data of a controller in the identified class: the direct least squares on the
     # measured rates is exact, and so is the (unsolved) collocation estimate it starts
     assert summary["direct_K_relative_error"] < 1e-6
@@ -48,6 +49,8 @@ def test_direct_start_recovers_the_known_controller_and_walks_the_held_out_part(
     walk = summary["validation"]
     assert walk["walks"] is True
     assert max(walk["angle_rms"].values()) < 0.01  # degrees
+    # retracing it, the simulation strikes the ground at the record's strikes
+    assert walk["strides"] == walk["measured_strides"] > 0
     # the direct fit is exact here too, and walked the same way
     assert walk["direct_walk"]["walks"] is True
     assert max(walk["direct_walk"]["angle_rms_deg"].values()) < 0.01
@@ -57,8 +60,41 @@ def test_direct_start_recovers_the_known_controller_and_walks_the_held_out_part(
         assert key in summary
 
 
+def test_the_figure_set_shows_the_schedules_with_bands_the_vaf_and_the_held_out_walk(identified):
+    *_, figures = identified
+    stems = {
+        "tstar_schedule", "stiffness_schedule", "damping_schedule", "gain_schedule",
+        "fitted_angles", "torque_vaf", "validation_walk",
+    }  # fmt: skip
+    for stem in stems:
+        for suffix in (".png", ".svg"):
+            assert (figures / f"{stem}{suffix}").stat().st_size > 10_000, stem + suffix
+
+
+def test_each_joints_own_gains_are_picked_with_their_errors():
+    from types import SimpleNamespace
+
+    from colloc.identify.gait import JOINT_NAMES
+    from colloc.identify.gait_outputs import _own_gains
+
+    feedback = [f"{j}_{s}" for s in ("rate", "angle") for j in reversed(JOINT_NAMES)]
+    K = np.arange(3 * 6 * 12, dtype=float).reshape(3, 6, 12)
+    est = SimpleNamespace(K=K, K_se=K / 10)
+    run = SimpleNamespace(feedback=feedback, collocation=est, direct=SimpleNamespace(K=-K))
+    run.truth = SimpleNamespace(K=2 * K)
+    own = _own_gains(run, "angle")  # type: ignore[arg-type]
+    for j, joint in enumerate(JOINT_NAMES):
+        i = feedback.index(f"{joint}_angle")
+        np.testing.assert_array_equal(own["collocation"][0][:, j], K[:, j, i])
+        np.testing.assert_array_equal(own["collocation"][1][:, j], K[:, j, i] / 10)
+        np.testing.assert_array_equal(own["direct"][0][:, j], -K[:, j, i])
+        np.testing.assert_array_equal(own["truth"][0][:, j], 2 * K[:, j, i])
+    run.feedback = feedback[:6]  # rates only: no angle gains to draw
+    assert _own_gains(run, "angle") == {}  # type: ignore[arg-type]
+
+
 def test_the_run_is_stored_with_its_own_kind_and_a_deterministic_id(identified, tmp_path):
-    _, summary, db = identified
+    _, summary, db, _ = identified
     from colloc.store import RunStore
 
     store = RunStore(db)

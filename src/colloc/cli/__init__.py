@@ -834,9 +834,9 @@ def _gait_identify(args: argparse.Namespace) -> int:
     print(f"held-out torque VAF ({' / '.join(vaf)}):")
     for joint in vaf["collocation"]:
         print(f"  {joint:<12}" + "".join(f" {vaf[name][joint]:8.4f}" for name in vaf))
-    print(f"held-out forward simulation: {run.validation['message']}")
+    print(f"held-out forward simulation: {_walk_line(run.validation)}")
     if run.validation.get("direct_walk"):
-        print(f"  under the direct fit: {run.validation['direct_walk']['message']}")
+        print(f"  under the direct fit: {_walk_line(run.validation['direct_walk'])}")
     for note in run.notes:
         print(f"note: {note}")
     stored = True
@@ -852,6 +852,21 @@ def _gait_identify(args: argparse.Namespace) -> int:
         print(f"summary -> {args.json}")
     walked = run.validation.get("walks") is not False
     return 0 if run.solver["success"] and walked and stored else 1
+
+
+def _walk_line(walk: dict[str, Any]) -> str:
+    """A held-out forward simulation in a line: its end, its strides, its angles' RMS."""
+    line = str(walk.get("message"))
+    if walk.get("strides") is not None:
+        of = walk.get("measured_strides")
+        line += f"; {walk['strides']} strides" + (f" of the record's {of}" if of else "")
+    rms_deg = walk.get("angle_rms_deg") or {}
+    if rms_deg:
+        line += (
+            f"; joint angles {min(rms_deg.values()):.1f}-{max(rms_deg.values()):.1f} deg RMS "
+            "from the measured"
+        )
+    return line
 
 
 def _gait(args: argparse.Namespace) -> int:

@@ -98,13 +98,16 @@ class GaitIdentification:
         Fit-window times, measured and identified joint angles (N, 6).
     solver : dict
         ``status``, ``success``, ``iterations``, ``objective``, ``constraint_violation``,
-        ``message``, ``log``.
+        ``message``, ``log``; the smoother's also ``windows`` (per stride window: ``start``,
+        ``stop`` [s], ``nodes``, ``iterations``, wall ``seconds`` and the ``process`` that
+        smoothed it).
     validation : dict
         ``torque_vaf`` (``collocation`` / ``direct`` / ``truth`` when the trial records its
         controller -> joint -> VAF), ``walks``, ``direct_walk`` (the direct fit's
-        ``walks``, ``message``, ``simulated_seconds``, ``angle_rms_deg``),
-        ``simulated_seconds``, ``message``, ``angle_rms_deg`` and ``angle_vaf`` (joint ->
-        value), ``times``, ``measured_angles``, ``simulated_angles`` (arrays).
+        ``walks``, ``message``, ``simulated_seconds``, ``strides``, ``angle_rms_deg``),
+        ``simulated_seconds``, ``message``, ``strides`` (the simulation's right heel strikes:
+        the strides to a fall if it falls) against ``measured_strides`` (the record's),
+        ``angle_rms_deg`` and ``angle_vaf`` (joint -> value), ``times``, ``measured_angles``, ``simulated_angles`` (arrays).
     metrics : dict
         ``K_relative_error``, ``Tstar_relative_error`` and their ``direct_`` twins,
         ``fraction_within_3se`` (None without a truth).
@@ -450,10 +453,23 @@ def _smoother_fit(c: _FitContext) -> _Fit:
             "constraint_violation": max(last.max_defect for last in lasts),
             "message": " | ".join("; ".join(s.describe() for s in r.stages) for r in results),
             "log": "",
+            "windows": [_window_facts(r) for r in results],
         },
         _summed_size([r.size for r in results], gs),
         np.concatenate([r.states[:, 3:9] for r in results]),
     )
+
+
+def _window_facts(result: Any) -> dict[str, Any]:
+    """What one smoothed window cost and where it ran (the summary's ``windows``)."""
+    return {
+        "start": float(result.times[0]),
+        "stop": float(result.times[-1]),
+        "nodes": int(result.times.size),
+        "iterations": int(sum(s.iterations for s in result.stages)),
+        "seconds": float(result.seconds),
+        "process": result.process,
+    }
 
 
 def _windows(
@@ -953,7 +969,8 @@ def _validate(
         # when its attenuated gains predict noisy states' torques as well (torque_vaf)
         walk = _walk(settings, data, dyn, controllers["direct"], states, phase_all)
         out["direct_walk"] = {
-            k: walk[k] for k in ("walks", "message", "simulated_seconds", "angle_rms_deg")
+            k: walk[k]
+            for k in ("walks", "message", "simulated_seconds", "strides", "angle_rms_deg")
         }
     return out
 
@@ -1041,10 +1058,14 @@ def _walk(
     n = record.times.size
     measured = part.signals[list(JOINT_ANGLE_COLUMNS)].to_numpy(dtype=float)[:n]
     simulated = record.states[:, 3:9]
+    held_strikes = part.right_heel_strikes - part.time[0]
     return {
         "walks": not record.fell,
         "message": record.message,
         "simulated_seconds": float(record.times[-1]),
+        # strides to a fall: the simulation's right heel strikes, against the record's
+        "strides": int(record.right_heel_strikes.size),
+        "measured_strides": int(np.count_nonzero(held_strikes <= t[-1])),
         "angle_rms_deg": dict(
             zip(JOINT_NAMES, map(float, np.degrees(rms(simulated - measured))), strict=True)
         ),

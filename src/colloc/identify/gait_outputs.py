@@ -43,6 +43,8 @@ def gait_summary(run: GaitIdentification, run_id: str) -> dict[str, Any]:
                 "walks": v.get("walks"),
                 "simulation": v.get("message"),
                 "simulated_seconds": v.get("simulated_seconds"),
+                "strides": v.get("strides"),
+                "measured_strides": v.get("measured_strides"),
                 "angle_rms": v.get("angle_rms_deg"),
                 "angle_vaf": v.get("angle_vaf"),
                 "direct_walk": v.get("direct_walk"),
@@ -58,6 +60,7 @@ def gait_summary(run: GaitIdentification, run_id: str) -> dict[str, Any]:
             "status": run.solver["status"],
             "success": run.solver["success"],
             "iterations": run.solver["iterations"],
+            "windows": run.solver.get("windows"),
             "objective": run.solver["objective"],
             "constraint_violation": run.solver["constraint_violation"],
             "problem": run.problem_size,
@@ -132,8 +135,9 @@ def gait_record(run: GaitIdentification, run_id: str) -> RunRecord:
 def save_gait_plots(
     run: GaitIdentification, directory: Path, formats: tuple[str, ...] = ("png", "svg")
 ) -> list[Path]:
-    """K(phi) (as its Frobenius norm per joint row), T*(phi) with ±2 SE bands and the truth;
-    measured vs fitted angles; held-out torque VAF; the held-out forward simulation."""
+    """T*(phi) and each joint's own angle and rate gains K(phi) with ±2 SE bands against the
+    direct fit and the truth, K's norm per joint row; measured vs fitted angles; held-out
+    torque VAF; the held-out forward simulation."""
     from colloc.plot import (  # matplotlib: only when figures are asked for
         plot_angle_comparison,
         plot_schedule,
@@ -150,6 +154,17 @@ def save_gait_plots(
     figures = {
         "tstar_schedule": plot_schedule(tstar, JOINT_NAMES, "T*(phi) [N m], ±2 SE"),
         "gain_schedule": plot_schedule(gains, JOINT_NAMES, "||K_j(phi)|| per torque row"),
+    }
+    for signal, stem, unit in (
+        ("angle", "stiffness_schedule", "N m/rad"),
+        ("rate", "damping_schedule", "N m s/rad"),
+    ):
+        own = _own_gains(run, signal)
+        if own:
+            figures[stem] = plot_schedule(
+                own, JOINT_NAMES, f"each joint's own {signal} gain K(phi) [{unit}], ±2 SE"
+            )
+    figures |= {
         "fitted_angles": plot_angle_comparison(
             run.times, run.measured, run.fitted, JOINT_NAMES, "fit window", "identified"
         ),
@@ -169,6 +184,30 @@ def save_gait_plots(
     for stem, fig in figures.items():
         paths += save_figure(fig, directory, stem, formats)
     return paths
+
+
+def _own_gains(
+    run: GaitIdentification, signal: str
+) -> dict[str, tuple[np.ndarray, np.ndarray | None]]:
+    """Each joint's gain on its own ``angle`` or ``rate`` (P, 6) per controller, with the
+    identified one's standard errors; empty when the feedback lacks one of them."""
+    columns = [f"{joint}_{signal}" for joint in JOINT_NAMES]
+    if not all(c in run.feedback for c in columns):
+        return {}
+    index = [run.feedback.index(c) for c in columns]
+    rows = np.arange(len(JOINT_NAMES))
+
+    def own(K: np.ndarray) -> np.ndarray:
+        return K[:, rows, index]
+
+    est = run.collocation
+    out: dict[str, tuple[np.ndarray, np.ndarray | None]] = {
+        "collocation": (own(est.K), None if est.K_se is None else own(est.K_se)),
+        "direct": (own(run.direct.K), None),
+    }
+    if run.truth is not None:
+        out["truth"] = (own(run.truth.K), None)
+    return out
 
 
 def _row_norm(K: np.ndarray) -> np.ndarray:

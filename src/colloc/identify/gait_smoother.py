@@ -27,7 +27,9 @@ Each stage reports what it did (:class:`SmootherStage`); a stage that fails rais
 from __future__ import annotations
 
 import copy
+import os
 import re
+import socket
 import time
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
@@ -240,6 +242,11 @@ class SmoothedGait:
         The last stage's scheme.
     size : dict
         The last stage's problem's size (:attr:`colloc.Problem.size`).
+    seconds : float
+        Wall time of :meth:`GaitSmoother.run`, the problems' builds included (the stages'
+        ``seconds`` count their solves only).
+    process : str
+        ``host:pid`` of the process that ran it (which worker, when windows are spread).
     """
 
     times: np.ndarray
@@ -252,6 +259,8 @@ class SmoothedGait:
     notes: list[str] = field(default_factory=list)
     scheme: Scheme | None = None
     size: dict[str, int] = field(default_factory=dict)
+    seconds: float = float("nan")
+    process: str = ""
 
     def __getstate__(self) -> dict[str, Any]:
         state = dict(self.__dict__)
@@ -676,6 +685,7 @@ class GaitSmoother:
             When a stage does not converge (a continuation step after its halvings).
         """
         say = progress or (lambda stage, detail: None)
+        started = time.perf_counter()
         s = self.settings
         stages: list[SmootherStage] = []
         v0 = s.start_friction_velocity
@@ -720,7 +730,10 @@ class GaitSmoother:
             current = goal
             if planned:
                 halvings = 0
-        return self._result(midpoint, z, stages)
+        result = self._result(midpoint, z, stages)
+        result.seconds = time.perf_counter() - started
+        result.process = f"{socket.gethostname()}:{os.getpid()}"
+        return result
 
     # ------------------------------------------------------------------ helpers
     def windows(self) -> list[tuple[int, int, int, int]]:
