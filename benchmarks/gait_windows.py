@@ -1,7 +1,10 @@
 """Benchmark the default gait identification by fit length, stride windows and Dask workers:
 wall time per step, peak memory (this process and each worker's), problem size, the errors of
 ``K`` and ``T*`` against the trial's controller with their bounds, the share of entries within
-3 SE, the held-out torque VAF and whether the held-out part is walked.
+3 SE, the held-out torque VAF and whether the held-out part is walked (its strides and
+joint-angle RMS), and each stride window's nodes, iterations, wall time and worker process
+(``windows``: the sum per process against the smoothing step's wall time shows how evenly
+the workers were loaded).
 
     python benchmarks/gait_windows.py --trial DIR --duration 60 120 240 360 \
         [--window-strides 20] [--workers 0 1 2] [--repeat 3] [--no-simulate] \
@@ -64,8 +67,13 @@ def one_case(
         "times", "problem", "status", "iterations", "K_relative_error",
         "Tstar_relative_error", "direct_K_relative_error", "direct_Tstar_relative_error",
         "K_relative_bound", "Tstar_relative_bound", "fraction_within_3se", "peak_rss_mb",
+        "windows",
     )  # fmt: skip
     record = {key: summary.get(key) for key in keep}
+    # per iteration: the smoothing step's wall time over the windows' IPOPT iterations
+    record["smooth_seconds_per_iteration"] = summary["times"]["smooth"] / max(
+        summary["iterations"], 1
+    )
     validation = summary.get("validation", {})
     record |= {
         "trial": str(trial),
@@ -75,6 +83,9 @@ def one_case(
         "worker_peak_rss_mb": worker_rss,
         "torque_vaf": validation.get("torque_vaf"),
         "walks": validation.get("walks"),
+        "strides": validation.get("strides"),
+        "measured_strides": validation.get("measured_strides"),
+        "angle_rms": validation.get("angle_rms"),
         "direct_walks": (validation.get("direct_walk") or {}).get("walks"),
     }
     return record
