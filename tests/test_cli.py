@@ -350,7 +350,9 @@ def test_noise_flags_reach_the_run_and_its_summary(tmp_path, capsys):
     argv += ["--json", str(tmp_path / "t.json")]
     assert run_cli(argv, capsys)[0] == 0
     other = json.loads((tmp_path / "t.json").read_text())
-    assert other["uncertainty"] == {"method": "sandwich", "blocks": round(101**0.5)}
+    assert other["uncertainty"]["method"] == "sandwich"
+    assert other["uncertainty"]["blocks"] == round(101**0.5)
+    assert other["uncertainty"]["discretisation"].startswith("Richardson, order 2")
     assert {s["name"] for s in other["residual_diagnostics"]["signals"]} == {"q0", "q1"}
     assert other["settings"]["noise_model"] is False
 

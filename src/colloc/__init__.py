@@ -29,8 +29,12 @@ _EXPORTS = {
     "Tracking": "colloc.nlp",
     "ResidualDiagnostics": "colloc.nlp.residuals",
     "residual_diagnostics": "colloc.nlp.residuals",
+    "DiscretisationError": "colloc.nlp.refinement",
+    "discretisation_error": "colloc.nlp.refinement",
+    "refined_problem": "colloc.nlp.refinement",
     "StartsReport": "colloc.nlp.starts",
     "other_starts": "colloc.nlp.starts",
+    "DiscretisationWarning": "colloc.nlp.uncertainty",
     "ParameterUncertainty": "colloc.nlp.uncertainty",
     "cramer_rao_bound": "colloc.nlp.uncertainty",
     "parameter_uncertainty": "colloc.nlp.uncertainty",
@@ -55,9 +59,15 @@ if TYPE_CHECKING:  # for type checkers; re-exported through __all__
         TerminalCost,
         Tracking,
     )
+    from colloc.nlp.refinement import (
+        DiscretisationError,
+        discretisation_error,
+        refined_problem,
+    )
     from colloc.nlp.residuals import ResidualDiagnostics, residual_diagnostics
     from colloc.nlp.starts import StartsReport, other_starts
     from colloc.nlp.uncertainty import (
+        DiscretisationWarning,
         ParameterUncertainty,
         cramer_rao_bound,
         parameter_uncertainty,

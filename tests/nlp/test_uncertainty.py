@@ -22,6 +22,7 @@ import sympy as sm
 from sympy.physics.mechanics import dynamicsymbols
 
 from colloc import (
+    DiscretisationWarning,
     Model,
     Problem,
     StateFeedback,
@@ -382,6 +383,9 @@ def test_errors_of_a_solve_that_did_not_converge_come_with_a_warning(study):
     converged = study.solve(measured)
     with warnings.catch_warnings():
         warnings.simplefilter("error")  # a converged solve's errors come without one
+        # (at 50 Hz the midpoint rule's own error in two gains is 0.6 of their standard
+        # error, said by a DiscretisationWarning: tests/nlp/test_refinement.py)
+        warnings.simplefilter("ignore", DiscretisationWarning)
         parameter_uncertainty(study.problem, converged)
 
 

@@ -669,18 +669,25 @@ def _pendulum(args: argparse.Namespace) -> int:
     if run.objective_at_true_gains is not None:
         print(f"objective with the true gains: {run.objective_at_true_gains:.6g}")
     method = run.uncertainty.method if run.uncertainty is not None else "none"
-    print(f"\n{'gain':<8} {'known':>12} {'identified':>12} {'std error':>10} {'initial':>12}")
-    for name, k, i, s, g in zip(
+    print(
+        f"\n{'gain':<8} {'known':>12} {'identified':>12} {'std error':>10} {'scheme err':>10} "
+        f"{'initial':>12}"
+    )
+    for name, k, i, s, d, g in zip(
         run.gain_names,
         run.known_gains,
         run.identified_gains,
         run.standard_errors,
+        run.discretisation_errors,
         run.initial_gains,
         strict=True,
     ):
         error = f"{s:10.5f}" if math.isfinite(s) else f"{'n/a':>10}"
-        print(f"{name:<8} {k:12.5f} {i:12.5f} {error} {g:12.5f}")
+        scheme = f"{d:10.2e}" if math.isfinite(d) else f"{'n/a':>10}"
+        print(f"{name:<8} {k:12.5f} {i:12.5f} {error} {scheme} {g:12.5f}")
     print(f"standard errors: {method}")
+    if run.uncertainty is not None and run.uncertainty.discretisation_note:
+        print(f"scheme error: {run.uncertainty.discretisation_note}")
     print(f"max relative gain error: {run.max_rel_gain_error:.3%}")
     for note in run.notes:
         print(f"note: {note}")

@@ -7,6 +7,7 @@ sum-of-sines cart force, add sensor noise, then recover the gains by direct coll
 from __future__ import annotations
 
 import time
+import warnings
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any
@@ -28,7 +29,11 @@ from colloc.nlp.objective import Tracking
 from colloc.nlp.problem import Problem
 from colloc.nlp.residuals import ResidualDiagnostics, residual_diagnostics
 from colloc.nlp.solution import Solution
-from colloc.nlp.uncertainty import ParameterUncertainty, parameter_uncertainty
+from colloc.nlp.uncertainty import (
+    DiscretisationWarning,
+    ParameterUncertainty,
+    parameter_uncertainty,
+)
 from colloc.simulate import ImplicitODE, SampledNoise, SumOfSines, add_sensor_noise
 from colloc.transcription import BackwardEuler, HermiteSimpson, Midpoint, Scheme, Trapezoidal
 
@@ -65,6 +70,12 @@ class PendulumRun:
     notes: list[str] = field(default_factory=list)
     force_measured: np.ndarray | None = None
     diagnostics: ResidualDiagnostics | None = None
+
+    @property
+    def discretisation_errors(self) -> np.ndarray:
+        """The scheme's estimated error in each gain (NaN where not estimated)."""
+        found = {} if self.uncertainty is None else self.uncertainty.discretisation_errors
+        return np.array([found.get(k, np.nan) for k in self.gain_symbols], dtype=float)
 
     @property
     def gain_names(self) -> list[str]:
@@ -210,11 +221,17 @@ def run_pendulum(
             "away from an optimum mean nothing"
         )
     else:
+        t0 = time.perf_counter()
+        say("uncertainty", "standard errors, and the scheme's error on a grid twice as fine")
         try:
-            uncertainty = parameter_uncertainty(problem, solution, method=settings.uncertainty)
+            with warnings.catch_warnings(record=True) as caught:
+                warnings.simplefilter("always", DiscretisationWarning)
+                uncertainty = parameter_uncertainty(problem, solution, method=settings.uncertainty)
+            notes += [str(w.message) for w in caught if w.category is DiscretisationWarning]
             se = np.array([uncertainty.standard_errors[k] for k in gain_symbols])
         except ValueError as exc:
             notes.append(f"no standard errors: {exc}")
+        timings["uncertainty"] = time.perf_counter() - t0
     diagnostics = residual_diagnostics(problem, solution.z, setup.reference_std**2)
     if settings.sensor_noise:  # without noise the size check states the obvious
         notes.extend(diagnostics.warnings)

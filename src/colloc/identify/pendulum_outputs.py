@@ -45,6 +45,13 @@ def pendulum_summary(run: PendulumRun, run_id: str) -> dict[str, Any]:
         "uncertainty": {
             "method": run.uncertainty.method if run.uncertainty is not None else None,
             "blocks": run.uncertainty.blocks if run.uncertainty is not None else None,
+            # the scheme's own error per gain (Richardson from a grid twice as fine)
+            "discretisation_errors": dict(
+                zip(run.gain_names, map(_num, run.discretisation_errors), strict=True)
+            ),
+            "discretisation": run.uncertainty.discretisation_note
+            if run.uncertainty is not None
+            else None,
         },
         "residual_diagnostics": run.diagnostics.as_dict() if run.diagnostics else None,
         "max_rel_gain_error": run.max_rel_gain_error,

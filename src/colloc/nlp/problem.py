@@ -130,6 +130,8 @@ class Problem:
             problems.append(str(exc))
             grid = TimeGrid(np.arange(2.0))  # placeholder so every other check still runs
         self.model, self.scheme, self.grid = model, scheme, grid
+        self.instance_constraints = tuple(instance_constraints or ())
+        self.cache = cache
         N = self.grid.num_nodes
         self.measured_inputs = check_measured_inputs(
             model, measured_inputs or {}, known_trajectories or {}, N, problems
