@@ -210,7 +210,8 @@ def test_bad_noise_options_are_all_reported_at_once():
     text = str(info.value)
     assert "measured_inputs: expected a mapping input -> (values, standard deviation)" in text
     assert (
-        "process_noise: expected a mapping disturbance -> standard deviation, found float" in text
+        "process_noise: expected a mapping disturbance -> standard deviation (or a tuple of "
+        "disturbances -> covariance), found float" in text
     )
     with pytest.raises(ProblemDefinitionError, match="expected a pair"):
         Problem(plant(), TIMES, measured_inputs={F: FORCE}, known_parameters={m: MASS})

@@ -268,3 +268,68 @@ class TerminalCost(ObjectiveTerm):
     def fingerprint(self) -> str:
         """See :meth:`ObjectiveTerm.fingerprint`."""
         return f"TerminalCost({sm.srepr(self.expr)})"
+
+
+class DisturbancePrior(ObjectiveTerm):
+    """The penalty of estimated disturbances (process noise): ``sum_k w_k^T S^-1 w_k``.
+
+    A disturbance alone (``w -> sigma``) contributes ``w_k^2 / sigma^2`` at every node; a
+    group of disturbances with a covariance ``S`` (``(w1, w2) -> S``: noise on the states a
+    controller reads enters its torques as ``K n``, correlated between them) contributes
+    ``|L^-1 w_k|^2`` with ``S = L L^T``: each row of ``L^-1 w`` is a signal of unit weight
+    (named ``"(w1, w2) whitened j"``), whose entries are node data, so new covariances of the
+    same groups need no rebuild. :class:`colloc.Problem` builds this term from its
+    ``process_noise``.
+
+    Parameters
+    ----------
+    noise : mapping
+        Disturbance -> standard deviation, or tuple of disturbances -> covariance matrix (as
+        checked by :class:`colloc.Problem`).
+    """
+
+    def __init__(self, noise: Mapping[object, object]) -> None:
+        self.noise = dict(noise)
+
+    def node_term(self, model: Model, times: np.ndarray, index: int) -> NodeTerm:
+        """See :meth:`ObjectiveTerm.node_term`."""
+        residuals: list[sm.Expr] = []
+        weights: list[float] = []
+        names: list[str] = []
+        coefficients: list[tuple[sm.Symbol, float]] = []
+        for key, value in self.noise.items():
+            if not isinstance(key, tuple):
+                residuals.append(key)
+                weights.append(1.0 / float(value) ** 2)  # type: ignore[arg-type]
+                names.append(name_of(key))
+                continue
+            whitening = np.linalg.inv(np.linalg.cholesky(np.asarray(value, dtype=float)))
+            label = "(" + ", ".join(map(name_of, key)) + ")"
+            for j in range(len(key)):
+                row = []
+                for i, w in enumerate(key[: j + 1]):  # L^-1 is lower triangular
+                    c = sm.Symbol(f"cw{index}_{len(names)}_{i}")
+                    coefficients.append((c, float(whitening[j, i])))
+                    row.append(c * w)
+                residuals.append(sm.Add(*row))
+                weights.append(1.0)
+                names.append(f"{label} whitened {j}")
+        m = len(residuals)
+        ym = sm.symbols(f"ym{index}_0:{m}")
+        wm = sm.symbols(f"wm{index}_0:{m}")
+        pieces = tuple((r - d, w) for r, d, w in zip(residuals, ym, wm, strict=True))
+        expr = sum((w * r**2 for r, w in pieces), sm.S.Zero)
+        data = np.hstack(
+            [
+                np.zeros((times.size, m)),
+                np.tile(weights, (times.size, 1)),
+                np.tile([v for _, v in coefficients], (times.size, 1)),
+            ]
+        )
+        symbols = tuple(ym) + tuple(wm) + tuple(c for c, _ in coefficients)
+        return NodeTerm(expr, symbols, data, np.ones(times.size), pieces, tuple(names))
+
+    def fingerprint(self) -> str:
+        """See :meth:`ObjectiveTerm.fingerprint`."""
+        keys = [k if isinstance(k, tuple) else (k,) for k in self.noise]
+        return "DisturbancePrior(" + ";".join(",".join(map(sm.srepr, k)) for k in keys) + ")"

@@ -19,7 +19,7 @@ from colloc.nlp.assembly import AssembledNLP
 from colloc.nlp.build import build_templates
 from colloc.nlp.known import KnownTrajectory
 from colloc.nlp.layout import Layout
-from colloc.nlp.objective import NodeTerm, ObjectiveTerm, Tracking
+from colloc.nlp.objective import DisturbancePrior, NodeTerm, ObjectiveTerm, Tracking
 from colloc.nlp.placement import GridData, assemble
 from colloc.nlp.solution import Solution
 from colloc.nlp.spec import (
@@ -87,7 +87,11 @@ class Problem:
         standard deviation per node. Each disturbance is estimated at every node and
         penalised by ``sum_k w_k^2 / sigma^2`` beside the tracking terms: the maximum a
         posteriori estimate when the tracking weights are ``1 / sigma_y^2`` (scale every
-        standard deviation by the same reference when the weights are relative).
+        standard deviation by the same reference when the weights are relative). A tuple of
+        disturbances -> their covariance matrix per node (symmetric positive definite)
+        penalises them jointly by ``sum_k w_k^T S^-1 w_k``: noise correlated between them, as
+        noise on the states a controller reads reaches its torques (``K n``: ``S = K
+        Sigma_n K^T``); see :class:`colloc.nlp.objective.DisturbancePrior`.
     measured_inputs : mapping, optional
         Input -> ``(values, sigma)``: an input measured with noise of standard deviation
         ``sigma`` (errors in variables). It becomes a free trajectory tracked to ``values``
@@ -198,7 +202,7 @@ class Problem:
         self,
         num_nodes: int,
         measured_inputs: Mapping[sm.Basic, tuple[np.ndarray, float]] | None = None,
-        process_noise: Mapping[sm.Basic, float] | None = None,
+        process_noise: Mapping[Any, Any] | None = None,
     ) -> list[ObjectiveTerm]:
         """The tracking terms of the measured inputs and the disturbance penalty (the
         problem's own, or the ones given)."""
@@ -213,12 +217,7 @@ class Problem:
                 )
             )
         if noise:
-            terms.append(
-                Tracking(
-                    {w: np.zeros(num_nodes) for w in noise},
-                    {w: 1.0 / s**2 for w, s in noise.items()},
-                )
-            )
+            terms.append(DisturbancePrior(noise))
         return terms
 
     @property
@@ -743,5 +742,12 @@ def _same_keys(
     if set(new) != set(built) and not problems:
         problems.append(
             f"{option}: expected the same {what} as the built problem "
-            f"{[name_of(k) for k in built]}, found {[name_of(k) for k in new]}"
+            f"{[_key_name(k) for k in built]}, found {[_key_name(k) for k in new]}"
         )
+
+
+def _key_name(key: Any) -> str:
+    """A symbol's name, or a group's ``(a, b)``."""
+    if isinstance(key, tuple):
+        return "(" + ", ".join(map(name_of, key)) + ")"
+    return name_of(key)

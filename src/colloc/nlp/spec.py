@@ -345,26 +345,78 @@ def _is_mapping(value: Any, name: str, expected: str, problems: list[str]) -> bo
 
 
 def check_process_noise(
-    model: Model, process_noise: Mapping[sm.Basic, Any], problems: list[str]
-) -> dict[sm.Basic, float]:
-    """Disturbance trajectory -> its standard deviation per node; each an unknown input."""
-    out: dict[sm.Basic, float] = {}
+    model: Model, process_noise: Mapping[Any, Any], problems: list[str]
+) -> dict[Any, Any]:
+    """Disturbance -> its standard deviation per node, or a tuple of disturbances -> their
+    covariance per node (a symmetric positive definite matrix); each an unknown input, and
+    none in two entries."""
+    out: dict[Any, Any] = {}
     if not _is_mapping(
-        process_noise, "process_noise", "disturbance -> standard deviation", problems
+        process_noise,
+        "process_noise",
+        "disturbance -> standard deviation (or a tuple of disturbances -> covariance)",
+        problems,
     ):
         return out
-    for w, value in process_noise.items():
-        if w not in model.unknown_inputs:
+    seen: set[sm.Basic] = set()
+    for key, value in process_noise.items():
+        group = tuple(key) if isinstance(key, tuple | list) else (key,)
+        where = f"process_noise[{', '.join(map(name_of, group))}]"
+        bad = [w for w in group if w not in model.unknown_inputs]
+        twice = [w for w in group if w in seen]
+        seen.update(group)
+        if bad:
             problems.append(
-                f"process_noise: {name_of(w)} is not an unknown input of the model (add it "
-                "with Model.with_disturbances; unknown inputs: "
+                f"process_noise: {', '.join(map(name_of, bad))} is not an unknown input of the "
+                "model (add it with Model.with_disturbances; unknown inputs: "
                 f"{[name_of(r) for r in model.unknown_inputs]})"
             )
             continue
-        std = _standard_deviation(value, f"process_noise[{name_of(w)}]", problems)
-        if std is not None:
-            out[w] = std
+        if twice or len(set(group)) != len(group):
+            problems.append(
+                f"{where}: {', '.join(map(name_of, twice or group))} given twice; each "
+                "disturbance belongs to one entry"
+            )
+            continue
+        if not isinstance(key, tuple | list):
+            std = _standard_deviation(value, where, problems)
+            if std is not None:
+                out[key] = std
+            continue
+        covariance = _covariance(value, len(group), where, problems)
+        if covariance is not None:
+            out[group] = covariance
     return out
+
+
+def _covariance(value: Any, size: int, where: str, problems: list[str]) -> np.ndarray | None:
+    """A ``size x size`` symmetric positive definite matrix, or None with the problem said."""
+    try:
+        matrix = np.array(value, dtype=float)
+    except (TypeError, ValueError):
+        problems.append(f"{where}: expected a {size} x {size} covariance matrix, found {value!r}")
+        return None
+    if matrix.shape != (size, size):
+        problems.append(
+            f"{where}: expected a {size} x {size} covariance matrix (one row per disturbance), "
+            f"found shape {matrix.shape}"
+        )
+        return None
+    if not np.all(np.isfinite(matrix)):
+        problems.append(f"{where}: expected finite values, found {matrix.tolist()}")
+        return None
+    if not np.allclose(matrix, matrix.T, rtol=1e-10, atol=0.0):
+        problems.append(f"{where}: expected a symmetric matrix, found {matrix.tolist()}")
+        return None
+    try:
+        np.linalg.cholesky(matrix)
+    except np.linalg.LinAlgError:
+        eig = np.linalg.eigvalsh(matrix)
+        problems.append(
+            f"{where}: expected a positive definite covariance, found eigenvalues {eig.tolist()}"
+        )
+        return None
+    return matrix
 
 
 def check_measured_inputs(

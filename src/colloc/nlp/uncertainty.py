@@ -245,20 +245,24 @@ def _uncertainty(
         raise ValueError("per_output: only for method='kkt' (the sandwich needs no variances)")
     G = _block_gradients(problem, solution.z, starts)
     assert residuals is not None  # computed above for the sandwich
-    priors = [r for r in residuals if r.kind != "tracking"]
     cov = np.zeros((q, q))
-    for prior in priors:
-        # a disturbance or a measured input's correction: its residuals are shrunk by the
-        # fit, so its share is taken from the noise model (4 sigma^2 Y W Y^T) rather than
-        # from the residuals, and its gradient is taken out of the blocks'
-        index = np.asarray(lay.node_indices(prior.name))
+    slopes = _signal_slopes(problem, solution.z)
+    for prior, (rows, slope) in zip(residuals, slopes, strict=True):
+        if prior.kind == "tracking":
+            continue
+        # a disturbance (or a group's whitened combination) or a measured input's
+        # correction: its residuals are shrunk by the fit, so its share is taken from the
+        # noise model (sum_k sigma^2 / w_k s_k s_k^T, s_k = 2 w_k grad r_k) rather than from
+        # the residuals, and its gradient (s_k r_k) is taken out of the blocks'
         used = prior.weights > 0
         r = np.where(used, prior.residuals, 0.0)
-        nodes = np.arange(index.size)
-        block = np.searchsorted(starts, nodes, side="right") - 1
-        G = G - sp.coo_matrix((2.0 * prior.weights * r, (index, block)), shape=G.shape).tocsc()
-        Y = kkt.parameter_columns(index[used])
-        cov += 4.0 * sigma2 * (Y * prior.weights[used]) @ Y.T
+        count = r.size
+        items = np.repeat(np.arange(count), slope.shape[1])
+        block = np.searchsorted(starts, items, side="right") - 1
+        G = G - sp.coo_matrix(((slope * r[:, None]).ravel(), (rows, block)), shape=G.shape).tocsc()
+        root = np.where(used, np.sqrt(sigma2 / np.where(used, prior.weights, 1.0)), 0.0)
+        Y = kkt.parameter_rows(_per_sample(rows, slope * root[:, None], n))
+        cov += Y @ Y.T
     U = kkt.parameter_rows(G)
     nb = starts.size
     cov += nb / (nb - 1) * (U @ U.T)
@@ -312,21 +316,13 @@ def _per_output_covariance(
 ) -> np.ndarray:
     """``[K^-1]_p,: (sum_i 4 w_i^2 v_i g_i g_i^T) [K^-1]_:,p`` with each tracked signal's
     variance per unit weight from its own residuals (priors: their given variance)."""
-    p = problem.nlp.objective_placement
-    assert p is not None  # parameter_uncertainty needs a tracking objective
-    local = p.gather(z)
     q = len(problem.partition.unknown_parameters)
     cov = np.zeros((q, q))
     signals = tracking_residuals(problem, z)
     has_priors = any(signal.kind != "tracking" for signal in signals)
     mismatched: list[str] = []
-    for cols, signal in zip(signal_columns(problem), signals, strict=True):
-        # this signal alone, with its weights and its term's quadrature factors;
-        # d/dz [w (y - d)^2 - w (y - d - 1)^2] = 2 w grad y: the sample's gradient factor
-        data = cols.alone(p.data)
-        g0 = p.mapped.jacobian(local, data)
-        data[:, cols.measurement] += 1.0
-        slope = (g0 - p.mapped.jacobian(local, data)).reshape(p.count, -1)
+    slopes = _signal_slopes(problem, z)
+    for (rows, slope), signal in zip(slopes, signals, strict=True):
         w = signal.weights
         used = w > 0
         r = np.where(used, signal.residuals, 0.0)
@@ -337,12 +333,7 @@ def _per_output_covariance(
                 mismatched.append(f"{signal.name} ({variance:.3g})")
         # sample k's residual has variance v_k = variance / w_k
         root = np.where(used, np.sqrt(variance / np.where(used, w, 1.0)), 0.0)
-        vals = slope * root[:, None]
-        items = np.repeat(np.arange(p.count), vals.shape[1])
-        A = sp.coo_matrix(
-            (vals.ravel(), (p.jac_cols, items)), shape=(problem.nlp.n, p.count)
-        ).tocsc()
-        U = kkt.parameter_rows(A)
+        U = kkt.parameter_rows(_per_sample(rows, slope * root[:, None], problem.nlp.n))
         cov += U @ U.T
     if mismatched:
         # the fit itself weighed the priors against data in other units: no covariance of
@@ -398,6 +389,31 @@ def _block_starts(blocks: int | Sequence[int] | None, N: int) -> np.ndarray:
     if starts[-1] >= N:
         raise ValueError(f"blocks: first node {int(starts[-1])} is beyond the {N} nodes")
     return starts
+
+
+def _signal_slopes(problem: Problem, z: np.ndarray) -> list[tuple[np.ndarray, np.ndarray]]:
+    """Per least-squares signal (in :func:`tracking_residuals`' order): the free-vector
+    index of each entry and, per node, ``2 w_k grad r_k`` at those entries ((count, width)),
+    with the signal's own weights and its term's quadrature factors."""
+    p = problem.nlp.objective_placement
+    assert p is not None  # parameter_uncertainty needs a tracking objective
+    local = p.gather(z)
+    out = []
+    for cols in signal_columns(problem):
+        # d/dz [w (y - d)^2 - w (y - d - 1)^2] = 2 w grad y
+        data = cols.alone(p.data)
+        g0 = p.mapped.jacobian(local, data)
+        data[:, cols.measurement] += 1.0
+        out.append((p.jac_cols, (g0 - p.mapped.jacobian(local, data)).reshape(p.count, -1)))
+    return out
+
+
+def _per_sample(rows: np.ndarray, values: np.ndarray, n: int) -> sp.csc_matrix:
+    """``(n, count)``: column ``k`` holds node ``k``'s ``values`` at the free-vector ``rows``
+    (the objective placement's Jacobian columns)."""
+    count = values.shape[0]
+    items = np.repeat(np.arange(count), values.shape[1])
+    return sp.coo_matrix((values.ravel(), (rows, items)), shape=(n, count)).tocsc()
 
 
 def _block_gradients(problem: Problem, z: np.ndarray, starts: np.ndarray) -> sp.csc_matrix:
