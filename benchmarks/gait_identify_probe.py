@@ -39,14 +39,13 @@ from __future__ import annotations
 
 import argparse
 import re
-import resource
 import time
 from pathlib import Path
 
 import gait_setup
 import numpy as np
 import pandas as pd
-from results_file import append_record
+from results_file import append_record, peak_rss_mb
 from scipy.interpolate import CubicSpline
 from sympy.physics.mechanics import dynamicsymbols
 
@@ -278,7 +277,7 @@ def main() -> None:
     )
     iterations = max(solution.stats["iterations"], 1)
     record["seconds_per_iteration"] = record["solve_seconds"] / iterations
-    record["peak_rss_mb"] = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
+    record["peak_rss_mb"] = peak_rss_mb()
     Ts, Ks = gs.arrays({p: solution.parameters[p] for p in gs.parameters})
     T0, K0 = gs.arrays(guess)
     record["K_relative_error"] = float(np.linalg.norm(Ks - K) / np.linalg.norm(K))

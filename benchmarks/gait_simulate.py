@@ -18,9 +18,10 @@ import argparse
 import json
 import os
 import platform
-import resource
 import time
 from pathlib import Path
+
+from results_file import peak_rss_mb
 
 
 def run(duration: float, speed: float, points: int, feedback: str, trial_dir: Path) -> dict:
@@ -57,7 +58,7 @@ def run(duration: float, speed: float, points: int, feedback: str, trial_dir: Pa
         result = simulate_trial(settings, progress=progress)
     except UnstableControllerError as error:
         out |= {"refused": str(error), "wall_time": time.perf_counter() - start}
-        return out | {"peak_rss_mb": _peak_rss_mb()}
+        return out | {"peak_rss_mb": peak_rss_mb()}
     record = result.record
     out |= {
         "wall_time": time.perf_counter() - start,
@@ -71,13 +72,9 @@ def run(duration: float, speed: float, points: int, feedback: str, trial_dir: Pa
         "tuning": result.summary.get("controller_tuning", {}),
         "settled_cycle": result.summary.get("cycle", {}),
         "hip_height_range_m": [float(record.states[:, 1].min()), float(record.states[:, 1].max())],
-        "peak_rss_mb": _peak_rss_mb(),
+        "peak_rss_mb": peak_rss_mb(),
     }
     return out
-
-
-def _peak_rss_mb() -> float:
-    return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0
 
 
 def main() -> None:

@@ -23,7 +23,7 @@ import sys
 import time
 from pathlib import Path
 
-from results_file import append_record
+from results_file import append_record, peak_rss_mb
 
 RESULTS = Path(__file__).parent / "results" / "gait_smoother.json"
 
@@ -36,7 +36,6 @@ def one_case(
     grf: bool = True,
     scheme: str = "midpoint",
 ) -> dict:
-    import resource
 
     import numpy as np
 
@@ -75,7 +74,7 @@ def one_case(
         "smoother_seconds": sum(s.seconds for s in result.stages),
         "iterations": sum(s.iterations for s in result.stages),
         "stages": [s.__dict__ for s in result.stages],
-        "peak_rss_mb": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024,
+        "peak_rss_mb": peak_rss_mb(),
     }
     if truth_dir is None:
         return record

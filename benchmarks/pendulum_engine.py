@@ -15,13 +15,14 @@ from __future__ import annotations
 
 import argparse
 import json
-import resource
 import statistics
 import subprocess
 import sys
 import tempfile
 import time
 from pathlib import Path
+
+from results_file import peak_rss_mb
 
 
 def worker(num_links: int, scheme: str, cache_dir: str, hessian_evals: int) -> dict:
@@ -55,7 +56,7 @@ def worker(num_links: int, scheme: str, cache_dir: str, hessian_evals: int) -> d
         "num_variables": run.solution.stats["num_variables"],
         "max_rel_gain_error": run.max_rel_gain_error,
         "max_gain_error_in_se": run.max_gain_error_in_se,
-        "peak_rss_mb": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024,
+        "peak_rss_mb": peak_rss_mb(),
     }
     if hessian_evals:
         nlp, z = run.problem.nlp, run.solution.z

@@ -118,6 +118,9 @@ class GaitIdentification:
     timings : dict
         Step -> seconds.
     peak_rss_mb : float
+        The larger of this process's peak resident memory and its largest child's (each
+        IPOPT solve runs in a forked child, :mod:`colloc.solve.watchdog`, whose factors this
+        process never holds).
     notes : list of str
     """
 
@@ -280,9 +283,16 @@ def identify_gait(
         problem_size=outcome.problem_size,
         data_digest=_digest(data.trial),
         timings=timings,
-        peak_rss_mb=resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024,
+        peak_rss_mb=_peak_rss_mb(),
         notes=notes,
     )
+
+
+def _peak_rss_mb() -> float:
+    """Peak resident memory [MB] of this process or of its largest child so far."""
+    own = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
+    children = resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss
+    return max(own, children) / 1024
 
 
 # ----------------------------------------------------------------------------- the fits
