@@ -230,13 +230,17 @@ def test_windows_of_whole_strides_smooth_alone_and_share_the_controller(tmp_path
         ("workers", ["--window-strides", "2", "--workers", "2"]),
     ):
         out = tmp_path / f"{name}.json"
+        quick = ["--no-simulate"] if name == "one" else []
         code = main(
             ["gait", "identify", str(FIXTURE), "--phase", "controller", "--fit-fraction", "0.6"]
-            + ["--no-plots", "--no-store", "--no-simulate", "--json", str(out), *extra]
+            + ["--no-plots", "--no-store", "--json", str(out), *quick, *extra]
         )
-        assert code == 0
         said = capsys.readouterr()
         runs[name] = (json.loads(out.read_text()), said.out + said.err)
+        # two strides per window cannot pin the schedule (K 195 % here): its walk falls,
+        # which the exit code says; the solve itself succeeds
+        walked = runs[name][0]["validation"]["walks"] is not False
+        assert runs[name][0]["success"] and code == (0 if walked else 1)
     one, windows = runs["one"][0], runs["windows"][0]
     size = windows["problem"]
     assert one["problem"]["windows"] == 1 and size["windows"] >= 2
@@ -266,6 +270,14 @@ def test_windows_of_whole_strides_smooth_alone_and_share_the_controller(tmp_path
     )
     spread = {f["process"] for f in workers["windows"]}
     assert 1 <= len(spread) <= 2 and facts[0]["process"] not in spread
+    # the held-out part walked under both controllers on the workers as here
+    here, there = windows["validation"], workers["validation"]
+    assert here["walks"] is not None and there["walks"] == here["walks"]
+    assert there["angle_rms"] == pytest.approx(here["angle_rms"], rel=1e-9)
+    assert there["strides"] == here["strides"] and there["measured_strides"] > 0
+    direct = there["direct_walk"]  # exact rate columns: the direct fit is exact and walks
+    assert direct["walks"] is True and direct["strides"] == direct["measured_strides"] > 0
+    assert direct["angle_rms_deg"] == pytest.approx(here["direct_walk"]["angle_rms_deg"], rel=1e-9)
 
 
 def test_workers_need_stride_windows(capsys):

@@ -111,7 +111,9 @@ def test_a_new_covariance_of_the_same_group_needs_no_rebuild(pair):
     swapped = problem.solve(guess)
     for p in (a, b, c):
         assert swapped.parameters[p] == pytest.approx(fresh.parameters[p], rel=1e-8)
-    with pytest.raises(ProblemDefinitionError, match=r"expected the same disturbances .*\(w1, w2\)"):
+    with pytest.raises(
+        ProblemDefinitionError, match=r"expected the same disturbances .*\(w1, w2\)"
+    ):
         problem.replace_data(process_noise={w1: 0.1, w2: 0.1})
     problem.replace_data(process_noise={(w1, w2): S})
 
@@ -134,10 +136,14 @@ def test_bad_covariances_are_all_named_at_once():
         return str(info.value)
 
     text = problems({(w1, w2): [[1.0, 2.0], [2.0, 1.0]], (x1,): [[1.0]]})
-    assert "process_noise[w1, w2]: expected a positive definite covariance, found eigenvalues" in text
+    assert (
+        "process_noise[w1, w2]: expected a positive definite covariance, found eigenvalues" in text
+    )
     assert "process_noise: x1 is not an unknown input" in text
     text = problems({(w1, w2): np.eye(3)})
-    assert "expected a 2 x 2 covariance matrix (one row per disturbance), found shape (3, 3)" in text
+    assert (
+        "expected a 2 x 2 covariance matrix (one row per disturbance), found shape (3, 3)" in text
+    )
     text = problems({(w1, w2): [[1.0, 0.5], [0.4, 1.0]]})
     assert "process_noise[w1, w2]: expected a symmetric matrix" in text
     text = problems({(w1, w2): np.eye(2), w2: 1.0})

@@ -49,8 +49,9 @@ from colloc.data.split import split, stride_windows, take_rows
 from colloc.data.trial import Trial, read_trial
 from colloc.identify.direct import fit_gain_schedule, smooth_with_derivatives
 from colloc.identify.gait_settings import DEFAULT_POINTS, GaitIdentifySettings
+from colloc.identify.gait_walk import WalkJob, walk
 from colloc.identify.gait_windows import WindowMap, gait_dynamics
-from colloc.identify.validation import rms, variance_accounted_for
+from colloc.identify.validation import variance_accounted_for
 
 Progress = Callable[[str, str], None]
 Iterations = Callable[[dict[str, float]], Any]
@@ -176,9 +177,11 @@ def identify_gait(
         Called after each solver iteration with ``iteration``, ``objective``,
         ``infeasibility``.
     map_windows : callable, optional
-        Method ``smoother``: ``map_windows(function, jobs) -> results`` smooths the stride
-        windows (``settings.window_strides``) elsewhere, e.g. on Dask workers
-        (:mod:`colloc.identify.gait_windows`); default one after another here.
+        ``map_windows(function, jobs) -> results`` runs the independent pieces elsewhere,
+        e.g. on Dask workers: the stride windows of method ``smoother``
+        (``settings.window_strides``, :mod:`colloc.identify.gait_windows`) and the
+        held-out part's two forward simulations (:mod:`colloc.identify.gait_walk`); default
+        one after another here.
 
     Returns
     -------
@@ -261,7 +264,7 @@ def identify_gait(
     # the trial's own controller, when it records one, beside them: the VAF a consistent
     # estimate approaches (the direct fit's attenuated gains can predict noisy states better)
     compared = {"collocation": collocation, "direct": direct} | ({"truth": truth} if truth else {})
-    validation = _validate(settings, data, dyn, gs, compared, say, map_windows)
+    validation = _validate(settings, data, gs, compared, say, map_windows)
     lap("validate")
 
     return GaitIdentification(
@@ -942,13 +945,13 @@ def _relative(estimate: np.ndarray, truth: np.ndarray) -> float:
 def _validate(
     settings: GaitIdentifySettings,
     data: _Data,
-    dyn: Any,
     gs: GainScheduled,
     controllers: dict[str, ControllerEstimate],
     say: Progress,
     map_windows: WindowMap | None = None,
 ) -> dict[str, Any]:
-    """Torque VAF of each controller and the forward simulation on the held-out part."""
+    """Torque VAF of each controller, and the forward simulations of the held-out part
+    under the identified and the direct controllers (through ``map_windows`` when given)."""
     part = data.held_out
     t, signals = part.time, part.signals
     phase_all = _phase(settings.phase, data.trial, t, signals)
@@ -973,15 +976,32 @@ def _validate(
             predicted = gs.torque(phase, x[:, feedback], est.Tstar, est.K)
             vaf = variance_accounted_for(torque, predicted)
             out[key][name] = dict(zip(JOINT_NAMES, map(float, vaf), strict=True))
-    out.update(_walk(settings, data, dyn, controllers["collocation"], states, phase_all))
-    if settings.simulate_validation:
-        # the baseline walked too: whether its gains hold the gait is what tells them apart
-        # when its attenuated gains predict noisy states' torques as well (torque_vaf)
-        walk = _walk(settings, data, dyn, controllers["direct"], states, phase_all)
-        out["direct_walk"] = {
-            k: walk[k]
-            for k in ("walks", "message", "simulated_seconds", "strides", "angle_rms_deg")
-        }
+    if not settings.simulate_validation:
+        out.update(walks=None, message="not simulated (simulate_validation=False)")
+        return out
+    # the baseline walked too: whether its gains hold the gait is what tells them apart when
+    # its attenuated gains predict noisy states' torques as well (torque_vaf); the two walks
+    # run side by side on the workers when there are some
+    jobs = [
+        _walk_job(settings, data, controllers[name], states, phase_all)
+        for name in ("collocation", "direct")
+    ]
+    say("validate", "forward simulations of the held-out part (identified, direct)")
+    identified, baseline = (
+        (walk(job) for job in jobs) if map_windows is None else map_windows(walk, jobs)
+    )
+    out.update(identified)
+    out["direct_walk"] = {
+        k: baseline[k]
+        for k in (
+            "walks",
+            "message",
+            "simulated_seconds",
+            "strides",
+            "measured_strides",
+            "angle_rms_deg",
+        )  # fmt: skip
+    }
     return out
 
 
@@ -1011,21 +1031,16 @@ def _smoothed_held_out(
     return at_phase[ok], at_states[ok], at_torques[ok]
 
 
-def _walk(
+def _walk_job(
     settings: GaitIdentifySettings,
     data: _Data,
-    dyn: Any,
     est: ControllerEstimate,
     states: np.ndarray,
     phase: np.ndarray,
-) -> dict[str, Any]:
-    """Forward simulation of the held-out part under ``est`` from its measured start."""
-    if not settings.simulate_validation:
-        return {"walks": None, "message": "not simulated (simulate_validation=False)"}
-    from colloc.gait.closed_loop import simulate_walking
-
+) -> WalkJob:
+    """The forward simulation of the held-out part under ``est`` from its measured start,
+    with the phase law of ``settings.phase``."""
     part, fit = data.held_out, data.fit
-    t = part.time - part.time[0]
     if settings.phase == "controller":
         column = fit.signals["controller_phase"].to_numpy(dtype=float)
         steps = np.diff(column)
@@ -1038,53 +1053,31 @@ def _walk(
             1.0,
         )
         strike_phase = float(np.median(phi0))
-        start_phase = float(np.mod(phase[0], 1.0))
     elif settings.phase == "causal":
         stride, strike_phase, _ = causal_phase_parameters(
             data.trial.metadata, data.trial.right_heel_strikes
         )
-        start_phase = float(np.mod(phase[0], 1.0))
     else:
         stride = float(np.median(np.diff(fit.right_heel_strikes)))
         strike_phase = 0.0
-        start_phase = float(np.mod(phase[0], 1.0))
     hip = fit.signals["trunk_y"].to_numpy(dtype=float)
     index = {n: i for i, n in enumerate(_state_names())}
-    record = simulate_walking(
-        None,
-        est.Tstar,
-        est.K,
-        float(t[-1]),
-        (t, part.signals["belt_speed"].to_numpy(dtype=float)),
-        dynamics=dyn,
-        sample_rate=float(1.0 / np.median(np.diff(part.time))),
-        hip_height_range=(float(hip.min()) - HIP_MARGIN, float(hip.max()) + HIP_MARGIN),
-        initial_state=states[0],
+    meta = data.trial.metadata
+    return WalkJob(
+        Tstar=est.Tstar,
+        K=est.K,
         feedback=np.array([index[n] for n in data.feedback]),
-        stride_duration=stride,
-        phase_at_strike=strike_phase,
-        initial_phase=start_phase,
+        times=part.time,
+        belt_speed=part.signals["belt_speed"].to_numpy(dtype=float),
+        initial_state=states[0],
+        measured_angles=part.signals[list(JOINT_ANGLE_COLUMNS)].to_numpy(dtype=float),
+        measured_strikes=part.right_heel_strikes - part.time[0],
+        stride=stride,
+        strike_phase=strike_phase,
+        start_phase=float(np.mod(phase[0], 1.0)),
+        hip_height_range=(float(hip.min()) - HIP_MARGIN, float(hip.max()) + HIP_MARGIN),
+        sample_rate=float(1.0 / np.median(np.diff(part.time))),
+        body_mass=float(meta.get("body_mass", 75.0)),
+        height=float(meta.get("height", 1.8)),
+        joint_names=JOINT_NAMES,
     )
-    n = record.times.size
-    measured = part.signals[list(JOINT_ANGLE_COLUMNS)].to_numpy(dtype=float)[:n]
-    simulated = record.states[:, 3:9]
-    held_strikes = part.right_heel_strikes - part.time[0]
-    return {
-        "walks": not record.fell,
-        "message": record.message,
-        "simulated_seconds": float(record.times[-1]),
-        # strides to a fall: the simulation's right heel strikes, against the record's
-        "strides": int(record.right_heel_strikes.size),
-        "measured_strides": int(np.count_nonzero(held_strikes <= t[-1])),
-        "angle_rms_deg": dict(
-            zip(JOINT_NAMES, map(float, np.degrees(rms(simulated - measured))), strict=True)
-        ),
-        "angle_vaf": dict(
-            zip(JOINT_NAMES, map(float, variance_accounted_for(measured, simulated)), strict=True)
-        )
-        if n >= 2
-        else {},
-        "times": part.time[:n],
-        "measured_angles": measured,
-        "simulated_angles": simulated,
-    }
