@@ -217,6 +217,20 @@ def test_a_goal_that_keeps_failing_stops_after_the_halvings_naming_the_stages(wi
     assert len(info.value.stages) == len(smoother.visited)
 
 
+def test_a_diverging_solve_is_stopped_at_its_objective_ceiling(window, dynamics, monkeypatch):
+    """A stage whose objective climbs past DIVERGED_OBJECTIVE_FACTOR times its start's is
+    stopped at that iteration (not left to its iteration budget): with the factor at 1e-12
+    every stage is, so the first backward-Euler solve ends at once, by the user's stop."""
+    import colloc.identify.gait_smoother as module
+
+    t, q, v, T = window
+    monkeypatch.setattr(module, "DIVERGED_OBJECTIVE_FACTOR", 1e-12)
+    smoother = GaitSmoother(dynamics, t[:201], q[:201], v[:201], STD, T[:201])
+    with pytest.raises(SmootherError, match="backward-euler .*User_Requested_Stop") as info:
+        smoother.run()
+    assert info.value.stages[-1].iterations <= 1
+
+
 def test_settings_and_arrays_are_checked_with_every_problem_named(window, dynamics):
     bad = SmootherSettings(
         cutoff_hz=-1.0, continuation=(0.02, 0.05), max_iter=0, overlap_seconds=6.0,
