@@ -29,6 +29,7 @@ import sympy as sm
 from colloc.model.symbols import name_of
 from colloc.nlp.known import KnownTrajectory
 from colloc.nlp.objective import NodeTerm, ObjectiveTerm
+from colloc.solve.watchdog import SolverCrashed, SolverStalled
 from colloc.transcription.base import TimeGrid
 from colloc.transcription.interpolation import CubicInterpolation
 
@@ -236,7 +237,7 @@ def discretisation_error(
     -------
     DiscretisationError
         NaN errors, with the reason in ``note``, when the problem cannot be refined
-        (process noise) or the refined solve does not converge.
+        (process noise) or the refined solve does not converge (or is stopped).
     """
     unknown = problem.partition.unknown_parameters
     order = int(problem.scheme.order)
@@ -261,8 +262,12 @@ def discretisation_error(
         by_name = {name_of(s): s for s in _free_quantities(problem)}
         recorded = solution.stats.get("scale") or {}
         scale = {by_name[k]: v for k, v in recorded.items() if k in by_name}
-    guess = refined_guess(problem, solution, fine)
-    answer = fine.solve(guess, hessian, scale=scale or None, **options)
+    # a cubic between nodes may overshoot a bound the solution touches: start inside them
+    guess = np.clip(refined_guess(problem, solution, fine), *fine.variable_bounds())
+    try:
+        answer = fine.solve(guess, hessian, scale=scale or None, **options)
+    except (SolverStalled, SolverCrashed) as exc:
+        return not_estimated(f"the solve on the refined grid failed: {exc}")
     if not answer.success:
         return not_estimated(f"the solve on the refined grid ended {answer.status.name}")
     factor = 2.0**order / (2.0**order - 1.0)
