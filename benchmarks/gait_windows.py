@@ -27,6 +27,8 @@ from pathlib import Path
 
 from results_file import append_record
 
+from colloc.numeric.memory import peak_rss_mb
+
 RESULTS = Path(__file__).parent / "results" / "gait_windows.json"
 
 
@@ -39,8 +41,6 @@ def one_case(
     fit_fraction: float = 0.75,
 ) -> dict:
     """One identification here; its summary with the workers' peak memory."""
-    import resource
-
     from colloc.identify.gait import identify_gait
     from colloc.identify.gait_outputs import gait_run_id, gait_summary
     from colloc.identify.gait_settings import GaitIdentifySettings
@@ -58,8 +58,8 @@ def one_case(
 
         with dask_client(workers) as client:
             run = identify_gait(settings, map_windows=client_map(client))
-            peaks = client.run(lambda: resource.getrusage(resource.RUSAGE_SELF).ru_maxrss)
-            worker_rss = [value / 1024 for value in peaks.values()]
+            # each worker's own peak and its forked solvers' (colloc.numeric.memory)
+            worker_rss = list(client.run(peak_rss_mb).values())
     else:
         run = identify_gait(settings)
     summary = gait_summary(run, gait_run_id(run))

@@ -270,6 +270,10 @@ def test_windows_of_whole_strides_smooth_alone_and_share_the_controller(tmp_path
     )
     spread = {f["process"] for f in workers["windows"]}
     assert 1 <= len(spread) <= 2 and facts[0]["process"] not in spread
+    # each worker's peak memory (its forked solvers' included) beside this process's
+    assert len(workers["worker_peak_rss_mb"]) == 2 and windows["worker_peak_rss_mb"] == []
+    assert all(peak > 100 for peak in workers["worker_peak_rss_mb"])
+    assert "peak memory: " in runs["workers"][1] and " MB here, workers " in runs["workers"][1]
     # the held-out part walked under both controllers on the workers as here
     here, there = windows["validation"], workers["validation"]
     assert here["walks"] is not None and there["walks"] == here["walks"]

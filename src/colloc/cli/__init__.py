@@ -819,14 +819,19 @@ def _gait_identify(args: argparse.Namespace) -> int:
         from colloc.batch.cluster import client_map, dask_client
 
         progress("workers", f"Dask: {args.scheduler or f'{args.workers} local workers'}")
+        from colloc.numeric.memory import peak_rss_mb
+
         with dask_client(args.workers, args.scheduler) as client:
             run = identify_gait(
                 settings, progress, _print_iteration, map_windows=client_map(client)
             )
+            # each worker's peak with its forked solvers': what the windows cost in memory
+            worker_peaks = [float(v) for v in client.run(peak_rss_mb).values()]
     else:
         run = identify_gait(settings, progress=progress, iterations=_print_iteration)
+        worker_peaks = []
     run_id = gait_run_id(run)
-    summary = gait_summary(run, run_id)
+    summary = gait_summary(run, run_id) | {"worker_peak_rss_mb": worker_peaks}
     print(
         f"\nsolver: {run.solver['status']} after {run.solver['iterations']} iterations "
         f"(objective {run.solver['objective']:.6g}, largest defect "
@@ -844,6 +849,10 @@ def _gait_identify(args: argparse.Namespace) -> int:
     print(f"held-out forward simulation: {_walk_line(run.validation)}")
     if run.validation.get("direct_walk"):
         print(f"  under the direct fit: {_walk_line(run.validation['direct_walk'])}")
+    workers_said = (
+        f", workers {', '.join(f'{v:.0f}' for v in worker_peaks)} MB" if worker_peaks else ""
+    )
+    print(f"peak memory: {run.peak_rss_mb:.0f} MB here{workers_said}")
     for note in run.notes:
         print(f"note: {note}")
     stored = True

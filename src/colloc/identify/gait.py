@@ -33,7 +33,6 @@ each timed and reported through ``progress``:
 
 from __future__ import annotations
 
-import resource
 import time
 import warnings
 from collections.abc import Callable
@@ -52,6 +51,7 @@ from colloc.identify.gait_settings import DEFAULT_POINTS, GaitIdentifySettings
 from colloc.identify.gait_walk import WalkJob, walk
 from colloc.identify.gait_windows import WindowMap, gait_dynamics
 from colloc.identify.validation import variance_accounted_for
+from colloc.numeric.memory import peak_rss_mb
 
 Progress = Callable[[str, str], None]
 Iterations = Callable[[dict[str, float]], Any]
@@ -286,16 +286,9 @@ def identify_gait(
         problem_size=outcome.problem_size,
         data_digest=_digest(data.trial),
         timings=timings,
-        peak_rss_mb=_peak_rss_mb(),
+        peak_rss_mb=peak_rss_mb(),
         notes=notes,
     )
-
-
-def _peak_rss_mb() -> float:
-    """Peak resident memory [MB] of this process or of its largest child so far."""
-    own = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
-    children = resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss
-    return max(own, children) / 1024
 
 
 # ----------------------------------------------------------------------------- the fits
