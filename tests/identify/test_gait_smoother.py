@@ -178,7 +178,7 @@ class _Scripted(GaitSmoother):
         status = "Solve_Succeeded" if ok else "Maximum_Iterations_Exceeded"
         return SmootherStage(name, "Midpoint", v_s, status, ok, 1, 0.0, 0.0, 0.0), z
 
-    def _result(self, problem, z, stages):
+    def _result(self, problem, z, stages, started):
         return stages
 
 
