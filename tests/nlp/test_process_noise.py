@@ -26,6 +26,7 @@ from sympy.physics.mechanics import dynamicsymbols
 from colloc import Model, Problem, Tracking, parameter_uncertainty
 from colloc.model.errors import ProblemDefinitionError
 from colloc.nlp.residuals import residual_diagnostics, tracking_residuals
+from colloc.nlp.uncertainty import count_measurements
 from colloc.transcription import BackwardEuler
 
 t = dynamicsymbols._t
@@ -150,10 +151,14 @@ def test_residuals_from_the_objective_equal_output_minus_measurement():
     assert np.isnan(found["x"].residuals[[3, 50]]).all()
     np.testing.assert_allclose(found["w"].residuals, solution.trajectories[w], atol=1e-10)
     np.testing.assert_allclose(found["w"].weights, 1.0 / SIGMA_W**2)
-    # the problem counts the tracked samples (N - 2) and the disturbance's N pseudo-samples
+    # the problem counts the tracked samples (N - 2) and the disturbance's N pseudo-samples;
+    # the noise is read over the tracked samples less what the data determine of the free
+    # quantities (the prior holds the rest of the disturbance)
+    assert count_measurements(prob) == (N - 2) + N
     unc = parameter_uncertainty(prob, solution)
     free = prob.nlp.n - prob.nlp.m
-    assert unc.degrees_of_freedom == (N - 2) + N - free
+    assert unc.effective_parameters is not None and 2 < unc.effective_parameters < free
+    assert unc.degrees_of_freedom == pytest.approx((N - 2) - unc.effective_parameters)
 
 
 def test_a_precisely_measured_input_gives_the_known_input_estimate():
