@@ -33,6 +33,7 @@ each timed and reported through ``progress``:
 
 from __future__ import annotations
 
+import dataclasses
 import time
 import warnings
 from collections.abc import Callable
@@ -59,6 +60,10 @@ Iterations = Callable[[dict[str, float]], Any]
 #: Width [m] added below and above the fit part's hip-height range: leaving it in the
 #: validation simulation counts as a fall (as in :func:`simulate_walking`'s default).
 HIP_MARGIN = 0.15
+#: What the validation keeps of the direct fit's held-out walk.
+DIRECT_WALK_KEYS = (
+    "walks", "message", "simulated_seconds", "strides", "measured_strides", "angle_rms_deg",
+)  # fmt: skip
 #: The controller structures' names in :class:`GainScheduled`.
 JOINT_NAMES = tuple(c.removesuffix("_torque") for c in TORQUE_COLUMNS)
 
@@ -108,7 +113,8 @@ class GaitIdentification:
         ``walks``, ``message``, ``simulated_seconds``, ``strides``, ``angle_rms_deg``),
         ``simulated_seconds``, ``message``, ``strides`` (the simulation's right heel strikes:
         the strides to a fall if it falls) against ``measured_strides`` (the record's),
-        ``angle_rms_deg`` and ``angle_vaf`` (joint -> value), ``times``, ``measured_angles``, ``simulated_angles`` (arrays).
+        ``angle_rms_deg`` and ``angle_vaf`` (joint -> value), ``times``,
+        ``measured_angles``, ``simulated_angles`` (arrays).
     metrics : dict
         ``K_relative_error``, ``Tstar_relative_error`` and their ``direct_`` twins,
         ``fraction_within_3se`` (None without a truth).
@@ -214,7 +220,7 @@ def identify_gait(
     # heavy imports only once the data are known to be usable
 
     meta = data.trial.metadata
-    dyn = gait_dynamics(float(meta.get("body_mass", 75.0)), float(meta.get("height", 1.8)))
+    dyn = gait_dynamics(*_subject(meta))
     model, torques = dyn.model, dyn.gait.torques
     state_index = {name: i for i, name in enumerate(_state_names())}
     feedback_states = [model.states[state_index[n]] for n in data.feedback]
@@ -466,6 +472,11 @@ def _smoother_fit(c: _FitContext) -> _Fit:
     )
 
 
+def _subject(meta: dict[str, Any]) -> tuple[float, float]:
+    """Body mass [kg] and height [m] a trial's metadata records (75 kg, 1.8 m if not)."""
+    return float(meta.get("body_mass", 75.0)), float(meta.get("height", 1.8))
+
+
 def _window_facts(result: Any) -> dict[str, Any]:
     """What one smoothed window cost and where it ran (the summary's ``windows``)."""
     return {
@@ -498,7 +509,7 @@ def _window_jobs(
     alone: what travels to a worker)."""
     from colloc.identify.gait_windows import WindowJob
 
-    body = (float(meta.get("body_mass", 75.0)), float(meta.get("height", 1.8)))
+    body = _subject(meta)
     return [
         WindowJob(
             take_rows(part, rows[first:stop]),
@@ -975,26 +986,15 @@ def _validate(
     # the baseline walked too: whether its gains hold the gait is what tells them apart when
     # its attenuated gains predict noisy states' torques as well (torque_vaf); the two walks
     # run side by side on the workers when there are some
-    jobs = [
-        _walk_job(settings, data, controllers[name], states, phase_all)
-        for name in ("collocation", "direct")
-    ]
+    identified_job = _walk_job(settings, data, controllers["collocation"], states, phase_all)
+    direct = controllers["direct"]
+    jobs = [identified_job, dataclasses.replace(identified_job, Tstar=direct.Tstar, K=direct.K)]
     say("validate", "forward simulations of the held-out part (identified, direct)")
     identified, baseline = (
         (walk(job) for job in jobs) if map_windows is None else map_windows(walk, jobs)
     )
     out.update(identified)
-    out["direct_walk"] = {
-        k: baseline[k]
-        for k in (
-            "walks",
-            "message",
-            "simulated_seconds",
-            "strides",
-            "measured_strides",
-            "angle_rms_deg",
-        )  # fmt: skip
-    }
+    out["direct_walk"] = {k: baseline[k] for k in DIRECT_WALK_KEYS}
     return out
 
 
@@ -1055,7 +1055,7 @@ def _walk_job(
         strike_phase = 0.0
     hip = fit.signals["trunk_y"].to_numpy(dtype=float)
     index = {n: i for i, n in enumerate(_state_names())}
-    meta = data.trial.metadata
+    body_mass, height = _subject(data.trial.metadata)
     return WalkJob(
         Tstar=est.Tstar,
         K=est.K,
@@ -1070,7 +1070,7 @@ def _walk_job(
         start_phase=float(np.mod(phase[0], 1.0)),
         hip_height_range=(float(hip.min()) - HIP_MARGIN, float(hip.max()) + HIP_MARGIN),
         sample_rate=float(1.0 / np.median(np.diff(part.time))),
-        body_mass=float(meta.get("body_mass", 75.0)),
-        height=float(meta.get("height", 1.8)),
+        body_mass=body_mass,
+        height=height,
         joint_names=JOINT_NAMES,
     )
