@@ -164,30 +164,72 @@ class Tracking(ObjectiveTerm):
         if problems:
             raise ValueError("Tracking: " + "; ".join(problems))
         outputs = list(self.measurements)
-        ym = sm.symbols(f"ym{index}_0:{len(outputs)}")
-        wm = sm.symbols(f"wm{index}_0:{len(outputs)}")
-        pieces = tuple(
-            (model.outputs.get(y, y) - m, w) for y, m, w in zip(outputs, ym, wm, strict=True)
-        )
-        expr = sum((w * r**2 for r, w in pieces), sm.S.Zero)
         measured = np.column_stack([self.measurements[y] for y in outputs])
         missing = np.isnan(measured)
-        weight_cols = np.column_stack(
+        weights = np.column_stack(
             [np.where(missing[:, j], 0.0, self.weights[y]) for j, y in enumerate(outputs)]
         )
-        data = np.hstack([np.where(missing, 0.0, measured), weight_cols])
-        return NodeTerm(
-            expr,
-            tuple(ym) + tuple(wm),
-            data,
-            trapezoid_weights(times) if self.integral else np.ones(times.size),
-            pieces,
+        return least_squares_term(
+            index,
+            [model.outputs.get(y, y) for y in outputs],
+            np.where(missing, 0.0, measured),
+            weights,
             tuple(name_of(y) for y in outputs),
+            trapezoid_weights(times) if self.integral else np.ones(times.size),
         )
 
     def fingerprint(self) -> str:
         """See :meth:`ObjectiveTerm.fingerprint`."""
         return "Tracking(" + ",".join(sm.srepr(y) for y in self.measurements) + ")"
+
+
+def least_squares_term(
+    index: int,
+    outputs: list[sm.Expr],
+    measured: np.ndarray,
+    weights: np.ndarray,
+    names: tuple[str, ...],
+    factors: np.ndarray,
+    extra_symbols: tuple[sm.Symbol, ...] = (),
+    extra_data: np.ndarray | None = None,
+) -> NodeTerm:
+    """``sum_j w_j (y_j - d_j)^2`` in node form, with the data layout the residuals rely on
+    (:func:`colloc.nlp.residuals.signal_columns`): ``m`` measurement columns, ``m`` weight
+    columns, then any further node data the outputs use.
+
+    Parameters
+    ----------
+    index : int
+        The term's index in the objective (its placeholders' names).
+    outputs : list of sympy.Expr
+        ``y_j`` in the model's states, inputs, parameters and ``extra_symbols``.
+    measured, weights : ndarray, shape (N, m)
+        ``d_j`` and ``w_j`` per node (0 where a sample is left out).
+    names : tuple of str
+        The signals' names.
+    factors : ndarray, shape (N,)
+        Quadrature factors ``c_k``.
+    extra_symbols : tuple of sympy.Symbol
+    extra_data : ndarray, shape (N, len(extra_symbols)), optional
+
+    Returns
+    -------
+    NodeTerm
+    """
+    m = len(outputs)
+    ym = sm.symbols(f"ym{index}_0:{m}")
+    wm = sm.symbols(f"wm{index}_0:{m}")
+    pieces = tuple((y - d, w) for y, d, w in zip(outputs, ym, wm, strict=True))
+    expr = sum((w * r**2 for r, w in pieces), sm.S.Zero)
+    columns = [measured, weights] + ([] if extra_data is None else [extra_data])
+    return NodeTerm(
+        expr,
+        tuple(ym) + tuple(wm) + tuple(extra_symbols),
+        np.hstack(columns),
+        factors,
+        pieces,
+        names,
+    )
 
 
 def trapezoid_weights(times: np.ndarray) -> np.ndarray:
@@ -314,20 +356,17 @@ class DisturbancePrior(ObjectiveTerm):
                 residuals.append(sm.Add(*row))
                 weights.append(1.0)
                 names.append(f"{label} whitened {j}")
-        m = len(residuals)
-        ym = sm.symbols(f"ym{index}_0:{m}")
-        wm = sm.symbols(f"wm{index}_0:{m}")
-        pieces = tuple((r - d, w) for r, d, w in zip(residuals, ym, wm, strict=True))
-        expr = sum((w * r**2 for r, w in pieces), sm.S.Zero)
-        data = np.hstack(
-            [
-                np.zeros((times.size, m)),
-                np.tile(weights, (times.size, 1)),
-                np.tile([v for _, v in coefficients], (times.size, 1)),
-            ]
+        count = times.size
+        return least_squares_term(
+            index,
+            residuals,
+            np.zeros((count, len(residuals))),
+            np.tile(weights, (count, 1)),
+            tuple(names),
+            np.ones(count),
+            tuple(c for c, _ in coefficients),
+            np.tile([v for _, v in coefficients], (count, 1)),
         )
-        symbols = tuple(ym) + tuple(wm) + tuple(c for c, _ in coefficients)
-        return NodeTerm(expr, symbols, data, np.ones(times.size), pieces, tuple(names))
 
     def fingerprint(self) -> str:
         """See :meth:`ObjectiveTerm.fingerprint`."""
