@@ -1,0 +1,539 @@
+"""From a lab's marker and force-plate exports to a colloc gait trial.
+
+The steps a gait lab takes, each stated in the trial's metadata (``lab``):
+
+1. read the exports (:func:`colloc.lab.exports.read_lab_export`), markers and plates by the
+   lab's names (:class:`colloc.lab.markers.MarkerSet`);
+2. fill each marker's interior gaps up to ``max_gap`` by a smoothing spline and cut the record to
+   where every marker was seen (:func:`colloc.lab.gaps.fill_gaps`);
+3. low-pass filter markers and plate signals alike, zero lag, -3 dB at ``cutoff_hz``
+   (:func:`colloc.lab.filtering.zero_lag_lowpass`);
+4. planar inverse kinematics: trunk pose from the hip and shoulder markers (both sides'
+   mean), each side's hip, knee and ankle angles in gait2d's conventions, rates by central
+   differences (:mod:`colloc.lab.kinematics`);
+5. inverse dynamics of each leg with gait2d's segments for the subject's mass and height and
+   the plate under its foot (:mod:`colloc.lab.dynamics`);
+6. heel strikes where a foot's filtered vertical force rises through ``strike_threshold``;
+   centre of pressure ``MomZ / ForY`` where the foot is loaded.
+
+The noise levels the identification weighs the signals by are estimated from the record
+itself: the robust spread (1.4826 times the median absolute deviation) of the unfiltered minus
+the filtered signal, per group of columns, so that impacts do not count as noise; a plate's
+from the second differences of its samples where its foot is off it.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import math
+import os
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pandas as pd
+from scipy.integrate import cumulative_trapezoid
+
+from colloc.data.columns import (
+    BELT_COLUMNS,
+    GRF_COLUMNS,
+    JOINT_ANGLE_COLUMNS,
+    JOINT_RATE_COLUMNS,
+    SIDES,
+    SIGNAL_COLUMNS,
+    TORQUE_COLUMNS,
+    TRUNK_COLUMNS,
+    TRUNK_RATE_COLUMNS,
+)
+from colloc.data.events import detect_heel_strikes
+from colloc.data.trial import Trial
+from colloc.gait.strikes import HEEL_STRIKE_THRESHOLD, UNLOADED_FORCE
+from colloc.lab.dynamics import LegInertia, leg_inverse_dynamics
+from colloc.lab.exports import LabExport, LabFileError, read_lab_export
+from colloc.lab.filtering import (
+    DEFAULT_CUTOFF_HZ,
+    DEFAULT_ORDER,
+    design_cutoff,
+    time_derivative,
+    zero_lag_lowpass,
+)
+from colloc.lab.gaps import DEFAULT_MAX_GAP, GAP_CONTEXT, Gap, fill_gaps
+from colloc.lab.kinematics import joint_angles, segment_orientation, segment_orientations
+from colloc.lab.markers import LANDMARKS, MarkerSet
+from colloc.models.gait2d_params import load_parameters
+from colloc.store.ids import package_versions
+
+#: Largest change of a segment's marker length over the record [m] before the markers are
+#: taken to be swapped or misplaced (leg2d's check).
+MAX_LENGTH_CHANGE = 0.1
+
+#: Relative difference between a segment's measured mean length and the model's (from the
+#: height) above which the trial carries a note.
+LENGTH_NOTE_FRACTION = 0.15
+
+_MAD_TO_SD = 1.4826
+
+
+@dataclass(frozen=True)
+class LabSettings:
+    """How a lab record becomes a trial.
+
+    Attributes
+    ----------
+    body_mass : float
+        [kg], scales the segments and is recorded in the trial.
+    height : float
+        [m], scales the segments' lengths and inertias.
+    belt_speed : float or str
+        The treadmill's belt speed: a constant [m/s] (0 overground), or the name of a column
+        of the exports that holds it.
+    cutoff_hz : float
+        The zero-lag filter's -3 dB frequency [Hz].
+    max_gap : float
+        Longest marker gap filled [s].
+    strike_threshold : float
+        Vertical force [N] whose upward crossing is a heel strike: by default the detector of
+        colloc's simulated trials (:data:`colloc.gait.strikes.HEEL_STRIKE_THRESHOLD`), so that
+        lab and synthetic trials put the gait phase's zero at the same instant. (The centre of
+        pressure is NaN below :data:`colloc.gait.strikes.UNLOADED_FORCE`.)
+    marker_set : MarkerSet
+        The exports' names of markers and plates.
+    zeros_are_missing : bool
+        Marker samples with every coordinate exactly 0 are missing.
+    """
+
+    body_mass: float
+    height: float
+    belt_speed: float | str
+    cutoff_hz: float = DEFAULT_CUTOFF_HZ
+    max_gap: float = DEFAULT_MAX_GAP
+    strike_threshold: float = HEEL_STRIKE_THRESHOLD
+    marker_set: MarkerSet = field(default_factory=MarkerSet)
+    zeros_are_missing: bool = True
+
+    def problems(self) -> list[str]:
+        """Every invalid setting, named (empty when the settings can be used)."""
+        out = []
+        checks = {
+            "body_mass": (self.body_mass, 20.0, 300.0, "kg"),
+            "height": (self.height, 0.5, 2.5, "m"),
+            "cutoff_hz": (self.cutoff_hz, 0.0, math.inf, "Hz"),
+            "strike_threshold": (self.strike_threshold, 0.0, math.inf, "N"),
+        }
+        for name, (value, low, high, unit) in checks.items():
+            if not (_real(value) and low < value < high):
+                out.append(
+                    f"{name}: expected a number of {unit} in ({low:g}, {high:g}), found {value!r}"
+                )
+        if not (_real(self.max_gap) and self.max_gap >= 0):
+            out.append(
+                f"max_gap: expected a non-negative number of seconds, found {self.max_gap!r}"
+            )
+        speed = self.belt_speed
+        if not (isinstance(speed, str) and speed) and not (
+            _real(speed) and math.isfinite(float(speed))
+        ):
+            out.append(
+                f"belt_speed: expected a speed in m/s (0 overground) or the name of a column, "
+                f"found {speed!r}"
+            )
+        if not isinstance(self.marker_set, MarkerSet):
+            out.append(f"marker_set: expected a MarkerSet, found {type(self.marker_set).__name__}")
+        return out
+
+
+def _real(value: Any) -> bool:
+    return isinstance(value, int | float | np.number) and not isinstance(value, bool)
+
+
+@dataclass(frozen=True)
+class LabResult:
+    """A trial made from a lab record, and what was done to make it.
+
+    Attributes
+    ----------
+    trial : Trial
+        Ready to write (:meth:`colloc.data.Trial.write`) and identify.
+    gaps : list of Gap
+        Every marker gap, filled or cut off.
+    notes : list of str
+        What a user should know (cut ends, segment lengths far from the model's, ...).
+    """
+
+    trial: Trial
+    gaps: list[Gap]
+    notes: list[str]
+
+
+def trial_from_lab(
+    markers_file: str | os.PathLike[str],
+    settings: LabSettings,
+    forces_file: str | os.PathLike[str] | None = None,
+    *,
+    names: Sequence[str] | None = None,
+    force_names: Sequence[str] | None = None,
+) -> LabResult:
+    """Read a lab's exports and make a gait trial of them.
+
+    Parameters
+    ----------
+    markers_file : path-like
+        The marker export (it may hold the plates too).
+    settings : LabSettings
+    forces_file : path-like, optional
+        A separate force-plate export; its time stamps may differ from the markers' (the
+        filtered plate signals are then interpolated onto the marker times).
+    names, force_names : sequence of str, optional
+        Column names of header-less files.
+
+    Returns
+    -------
+    LabResult
+
+    Raises
+    ------
+    ValueError
+        Every problem found at once: invalid settings, unreadable files
+        (:class:`colloc.lab.exports.LabFileError`), missing markers or plates, gaps longer
+        than ``max_gap``, markers whose distance jumps (swapped markers), too short a record.
+    """
+    problems = settings.problems()
+    exports = []
+    for path, header in ((markers_file, names), (forces_file, force_names)):
+        if path is None:
+            continue
+        try:
+            exports.append(
+                read_lab_export(path, names=header, zeros_are_missing=settings.zeros_are_missing)
+            )
+        except LabFileError as error:
+            problems += [f"{error.source}: {p}" for p in error.problems]
+    if problems:
+        raise LabFileError("lab record", problems)
+    result = process_lab(exports[0], settings, exports[1] if len(exports) > 1 else None)
+    sources = {"markers": _file_record(markers_file)}
+    if forces_file is not None:
+        sources["forces"] = _file_record(forces_file)
+    result.trial.metadata["lab"]["sources"] = sources
+    return result
+
+
+def _file_record(path: str | os.PathLike[str]) -> dict[str, str]:
+    data = Path(path).read_bytes()
+    return {"path": str(Path(path).resolve()), "sha256": hashlib.sha256(data).hexdigest()}
+
+
+def process_lab(
+    markers: LabExport, settings: LabSettings, forces: LabExport | None = None
+) -> LabResult:
+    """Make a gait trial of lab exports already read.
+
+    Parameters
+    ----------
+    markers : LabExport
+        Markers (and the plates, when ``forces`` is None).
+    settings : LabSettings
+    forces : LabExport, optional
+        The plates, on their own time stamps.
+
+    Returns
+    -------
+    LabResult
+
+    Raises
+    ------
+    ValueError
+        As :func:`trial_from_lab`, every problem at once.
+    """
+    problems = settings.problems()
+    ms = settings.marker_set
+    needed = [ms.marker(side, landmark) for side in SIDES for landmark in LANDMARKS]
+    lacking = [name for name in needed if name not in markers.markers]
+    if lacking:
+        problems.append(
+            f"markers: {', '.join(lacking)} not in {markers.source or 'the export'} (found "
+            f"{', '.join(sorted(markers.markers)) or 'none'}); name the markers with marker_set"
+        )
+    plates = forces if forces is not None else markers
+    absent = [ms.plates[side] for side in SIDES if ms.plates[side] not in plates.plates]
+    if absent:
+        problems.append(
+            f"plates: {', '.join(absent)} not in {plates.source or 'the export'} (found "
+            f"{', '.join(sorted(plates.plates)) or 'none'}); each foot needs its plate"
+        )
+    belt_column = settings.belt_speed if isinstance(settings.belt_speed, str) else None
+    columns = {**markers.columns, **(forces.columns if forces is not None else {})}
+    if belt_column is not None and belt_column not in columns:
+        problems.append(
+            f"belt_speed: no column {belt_column!r} in the exports (found "
+            f"{', '.join(sorted(columns)) or 'none'})"
+        )
+    if problems:
+        raise LabFileError("lab record", problems)
+    fs = markers.sample_rate
+    filled, gaps, span = fill_gaps(
+        markers.time, {name: markers.markers[name] for name in needed}, settings.max_gap
+    )
+    time = markers.time[span]
+    notes = [
+        f"marker {g.marker} missing at the {'start' if g.start <= markers.time[0] else 'end'} "
+        f"({g.samples} samples): the record is cut to {time[0]:g}-{time[-1]:g} s"
+        for g in gaps
+        if not g.filled
+    ]
+    raw = {name: xy[span] for name, xy in filled.items()}
+    smooth = {name: zero_lag_lowpass(xy, fs, settings.cutoff_hz) for name, xy in raw.items()}
+    loads = _plate_loads(plates, time, settings, ms)
+    belt = _belt_speed(settings, columns, markers, forces, time)
+
+    def landmarks(source: dict[str, np.ndarray], side: str) -> dict[str, np.ndarray]:
+        return {landmark: source[ms.marker(side, landmark)] for landmark in LANDMARKS}
+
+    def mean_of_sides(source: dict[str, np.ndarray], landmark: str) -> np.ndarray:
+        right, left = (source[ms.marker(side, landmark)] for side in SIDES)
+        return np.asarray(0.5 * (right + left))
+
+    trunk = {}
+    for label, source in (("raw", raw), ("smooth", smooth)):
+        hip, shoulder = mean_of_sides(source, "hip"), mean_of_sides(source, "shoulder")
+        trunk[label] = np.column_stack([hip, segment_orientation(hip, shoulder, (0.0, 1.0))])
+    angles: dict[str, list[np.ndarray]] = {"raw": [], "smooth": []}
+    torques = []
+    inertia = LegInertia.from_parameters(load_parameters(settings.body_mass, settings.height))
+    for side in SIDES:
+        oriented = {}
+        for label, source in (("raw", raw), ("smooth", smooth)):
+            oriented[label] = segment_orientations(landmarks(source, side))
+            oriented[label]["trunk"] = trunk[label][:, 2]
+            angles[label].append(joint_angles(oriented[label]))
+        leg = leg_inverse_dynamics(
+            landmarks(smooth, side), oriented["smooth"], loads[side]["smooth"], inertia, fs
+        )
+        torques.append(leg.torques)
+    joint = np.column_stack(angles["smooth"])
+    signals = pd.DataFrame(
+        np.column_stack(
+            [
+                joint,
+                time_derivative(joint, fs),
+                trunk["smooth"],
+                belt,
+                cumulative_trapezoid(belt, time, initial=0.0),
+                time_derivative(trunk["smooth"], fs),
+                np.column_stack(torques),
+                *(_ground_reaction(loads[side]["smooth"]) for side in SIDES),
+            ]
+        ),
+        columns=list(
+            JOINT_ANGLE_COLUMNS
+            + JOINT_RATE_COLUMNS
+            + TRUNK_COLUMNS
+            + BELT_COLUMNS
+            + TRUNK_RATE_COLUMNS
+            + TORQUE_COLUMNS
+            + GRF_COLUMNS
+        ),
+    )[list(SIGNAL_COLUMNS)]
+    strikes = {
+        side: detect_heel_strikes(time, loads[side]["smooth"][:, 1], settings.strike_threshold)
+        for side in SIDES
+    }
+    length_problems, lengths, length_notes = _segment_lengths(smooth, ms, settings)
+    if length_problems:
+        raise LabFileError("lab record", length_problems)
+    notes += length_notes
+    noise = _noise(angles, trunk, loads, raw, smooth, settings)
+    metadata = {
+        "sample_rate": fs,
+        "body_mass": float(settings.body_mass),
+        "height": float(settings.height),
+        "noise": noise,
+        "lab": _processing(settings, fs, gaps, time, lengths, strikes, notes),
+        "package_versions": package_versions(),
+    }
+    trial = Trial(time, signals, strikes["right"], strikes["left"], metadata)
+    trial.validate()
+    return LabResult(trial=trial, gaps=gaps, notes=notes)
+
+
+def _plate_loads(
+    plates: LabExport, time: np.ndarray, settings: LabSettings, ms: MarkerSet
+) -> dict[str, dict[str, np.ndarray]]:
+    """Each foot's ``Fx, Fy, Mz`` on the marker times, filtered and unfiltered."""
+    out = {}
+    rate = plates.sample_rate
+    if time[0] < plates.time[0] - 0.5 / rate or time[-1] > plates.time[-1] + 0.5 / rate:
+        raise LabFileError(
+            "lab record",
+            [
+                f"plates: the force export covers {plates.time[0]:g}-{plates.time[-1]:g} s, "
+                f"the markers {time[0]:g}-{time[-1]:g} s; the forces must cover the markers"
+            ],
+        )
+    for side in SIDES:
+        channels = plates.plates[ms.plates[side]]
+        smooth = zero_lag_lowpass(channels, rate, settings.cutoff_hz)
+        out[side] = {
+            label: np.column_stack([np.interp(time, plates.time, values[:, k]) for k in range(3)])
+            for label, values in (("raw", channels), ("smooth", smooth))
+        }
+    return out
+
+
+def _belt_speed(
+    settings: LabSettings,
+    columns: dict[str, np.ndarray],
+    markers: LabExport,
+    forces: LabExport | None,
+    time: np.ndarray,
+) -> np.ndarray:
+    if not isinstance(settings.belt_speed, str):
+        return np.full(time.size, float(settings.belt_speed))
+    name = settings.belt_speed
+    source = markers if name in markers.columns else forces
+    assert source is not None  # the column was found in one of them
+    values = source.columns[name]
+    if not np.all(np.isfinite(values)):
+        raise LabFileError(
+            "lab record",
+            [f"belt_speed: column {name!r} has {int((~np.isfinite(values)).sum())} NaN"],
+        )
+    smooth = zero_lag_lowpass(values, source.sample_rate, settings.cutoff_hz)
+    return np.interp(time, source.time, smooth)
+
+
+def _ground_reaction(load: np.ndarray) -> np.ndarray:
+    """``grf_x, grf_y, cop_x`` of one foot; the centre of pressure NaN while unloaded."""
+    loaded = load[:, 1] >= UNLOADED_FORCE
+    cop = np.full(len(load), np.nan)
+    cop[loaded] = load[loaded, 2] / load[loaded, 1]
+    return np.column_stack([load[:, 0], load[:, 1], cop])
+
+
+def _segment_lengths(
+    smooth: dict[str, np.ndarray], ms: MarkerSet, settings: LabSettings
+) -> tuple[list[str], dict[str, Any], list[str]]:
+    """Swapped-marker check and the measured lengths against the model's."""
+    params = load_parameters(settings.body_mass, settings.height)
+    model = {
+        "thigh": params.thigh.length,
+        "shank": params.shank.length,
+        "foot": params.toe_x - params.heel_x,
+    }
+    pairs = {"thigh": ("hip", "knee"), "shank": ("knee", "ankle"), "foot": ("heel", "toe")}
+    problems, notes, lengths = [], [], {}
+    for side in SIDES:
+        for segment, (a, b) in pairs.items():
+            length = np.linalg.norm(smooth[ms.marker(side, b)] - smooth[ms.marker(side, a)], axis=1)
+            mean = float(length.mean())
+            lengths[f"{side}_{segment}"] = {"measured": mean, "model": float(model[segment])}
+            change = float(np.max(np.abs(length - mean)))
+            if change > MAX_LENGTH_CHANGE:
+                where = float(np.argmax(np.abs(length - mean)))
+                problems.append(
+                    f"{side} {segment}: the distance {ms.marker(side, a)}-{ms.marker(side, b)} "
+                    f"changes by {change:.3f} m (sample {where:.0f}); more than "
+                    f"{MAX_LENGTH_CHANGE} m means swapped or misplaced markers"
+                )
+            if abs(mean / model[segment] - 1.0) > LENGTH_NOTE_FRACTION:
+                notes.append(
+                    f"{side} {segment}: markers {mean:.3f} m apart, the model's segment for "
+                    f"{settings.height:g} m is {model[segment]:.3f} m; check the height"
+                )
+    return problems, lengths, notes
+
+
+def _robust_sd(residual: np.ndarray) -> float:
+    residual = residual[np.isfinite(residual)]
+    return float(_MAD_TO_SD * np.median(np.abs(residual - np.median(residual))))
+
+
+def _noise(
+    angles: dict[str, list[np.ndarray]],
+    trunk: dict[str, np.ndarray],
+    loads: dict[str, dict[str, np.ndarray]],
+    raw: dict[str, np.ndarray],
+    smooth: dict[str, np.ndarray],
+    settings: LabSettings,
+) -> dict[str, Any]:
+    """Noise levels per trial column group, from the unfiltered minus the filtered signals."""
+    joint = _robust_sd(
+        np.concatenate(
+            [(r - s).ravel() for r, s in zip(angles["raw"], angles["smooth"], strict=True)]
+        )
+    )
+    position = _robust_sd((trunk["raw"][:, :2] - trunk["smooth"][:, :2]).ravel())
+    trunk_angle = _robust_sd(trunk["raw"][:, 2] - trunk["smooth"][:, 2])
+    # a plate's noise shows where its foot is off it, in the second differences of its
+    # samples (white noise: variance 6 sigma^2); the filter's ringing after an impact is not
+    # noise, nor are the impacts
+    differences = []
+    for side in SIDES:
+        measured = loads[side]["raw"][:, :2]
+        unloaded = (loads[side]["smooth"][:, 1] < UNLOADED_FORCE)[1:-1]
+        rows = unloaded if unloaded.sum() >= 10 else np.ones(unloaded.size, bool)
+        differences.append(np.diff(measured, 2, axis=0)[rows].ravel())
+    force = _robust_sd(np.concatenate(differences)) / np.sqrt(6.0)
+    bandwidth = 2.0 * np.pi * settings.cutoff_hz
+    std = {
+        "joint_angle": joint,
+        "joint_rate": joint * bandwidth,
+        "trunk_position": position,
+        "trunk_angle": trunk_angle,
+        "trunk_velocity": position * bandwidth,
+        "trunk_angle_rate": trunk_angle * bandwidth,
+        "ground_reaction_force": force,
+    }
+    marker = _robust_sd(np.concatenate([(raw[n] - smooth[n]).ravel() for n in raw]))
+    return {
+        "std": {group: max(value, 1e-9) for group, value in std.items()},
+        "marker_std": marker,
+        "estimated": "1.4826 x the median absolute deviation of the unfiltered minus the "
+        "filtered signal (forces: of the second differences / sqrt 6 while the foot is off the "
+        "plate); rates: that times 2 pi "
+        "cutoff_hz; groups not listed take colloc's default lab noise",
+    }
+
+
+def _processing(
+    settings: LabSettings,
+    sample_rate: float,
+    gaps: list[Gap],
+    time: np.ndarray,
+    lengths: dict[str, Any],
+    strikes: dict[str, np.ndarray],
+    notes: list[str],
+) -> dict[str, Any]:
+    return {
+        "filter": {
+            "type": "Butterworth low-pass, forward and backward (zero lag)",
+            "order_per_pass": DEFAULT_ORDER,
+            "cutoff_hz": float(settings.cutoff_hz),
+            "design_cutoff_hz": design_cutoff(settings.cutoff_hz, sample_rate),
+            "applied_to": "markers, plate forces and moments, belt speed",
+        },
+        "rates": "central differences of the filtered signals (numpy.gradient, second order)",
+        "gaps": {
+            "method": "cubic smoothing spline (generalised cross-validation) through the "
+            f"marker's seen samples within {GAP_CONTEXT} s (scipy make_smoothing_spline)",
+            "max_gap_s": float(settings.max_gap),
+            "list": [g.as_dict() for g in gaps],
+        },
+        "span": [float(time[0]), float(time[-1])],
+        "segments": "gait2d (Winter's fractions) scaled by body_mass and height",
+        "segment_lengths_m": lengths,
+        "marker_set": {
+            **{landmark: getattr(settings.marker_set, landmark) for landmark in LANDMARKS},
+            "prefixes": dict(settings.marker_set.prefixes),
+            "plates": dict(settings.marker_set.plates),
+        },
+        "belt_speed": settings.belt_speed,
+        "heel_strikes": {
+            "threshold_n": float(settings.strike_threshold),
+            "from": "upward crossings of each plate's filtered vertical force",
+            "counts": {side: int(strikes[side].size) for side in SIDES},
+        },
+        "notes": list(notes),
+    }
