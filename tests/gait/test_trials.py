@@ -562,6 +562,29 @@ def test_cli_runs_the_workflow_and_reports_strides(monkeypatch, capsys, tmp_path
     assert simulate[3]["torque_noise"] == 0.0  # no motor noise unless asked for
 
 
+def test_cli_writes_the_lab_export_of_the_simulated_walk(monkeypatch, capsys, tmp_path):
+    from colloc.cli import main
+    from colloc.lab import read_lab_export
+
+    calls: list = []
+    fake_pipeline(monkeypatch, calls)
+    out = tmp_path / "sim"
+    assert main(["gait", "simulate", "--duration", "6", "--lab-export", "--out", str(out)]) == 0
+    assert f"lab export: {out / 'lab-export.tsv'}" in capsys.readouterr().out
+    export = read_lab_export(out / "lab-export.tsv")
+    record = next(c for c in calls if c[0] == "simulate")
+    assert export.time.size == 601 and sorted(export.plates) == ["FP1", "FP2"]
+    assert len(export.markers) == 12 and sorted(export.columns) == [
+        "LeftBeltSpeed",
+        "RightBeltSpeed",
+    ]
+    # the fake record's right heel and toe forces (sin(t), sin(t + 2); forward components
+    # sin(t + 0), sin(t + 2)) with the default 2 N noise
+    forward = np.sin(export.time) + np.sin(export.time + 2)
+    assert np.std(export.plates["FP2"][:, 0] - forward) == pytest.approx(2.0, rel=0.15)
+    assert record[1] == 6.0
+
+
 def test_cli_passes_motor_and_sensor_noise(monkeypatch, capsys, tmp_path):
     import json
 

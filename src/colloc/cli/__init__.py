@@ -503,6 +503,12 @@ def build_parser() -> argparse.ArgumentParser:
         "(default %(default)s)",
     )
     sim.add_argument(
+        "--lab-export",
+        action="store_true",
+        help="also write the markers, force plates and belt speed a gait lab would have "
+        "recorded (lab-export.tsv, 1 mm marker noise; see colloc gait trial-from-lab)",
+    )
+    sim.add_argument(
         "--perturbation-scale",
         type=_number,
         default=1.0,
@@ -510,6 +516,9 @@ def build_parser() -> argparse.ArgumentParser:
     )
 
     _identify_parser(gs, DEFAULT_URL)
+    from colloc.cli.lab import add_parser as lab_parser
+
+    lab_parser(gs)
 
     _batch_parser(sub, DEFAULT_URL)
 
@@ -942,6 +951,13 @@ def _gait_simulate(args: argparse.Namespace) -> int:
         )
     start = time.perf_counter()
     result = simulate_trial(settings, progress=_step_printer(start))
+    if args.lab_export:
+        from colloc.lab import lab_export_from_record, write_lab_export
+        from colloc.models.gait2d_params import load_parameters
+
+        params = load_parameters(settings.body_mass, settings.height)
+        export = lab_export_from_record(result.record, params, seed=settings.seed)
+        result.files["lab export"] = write_lab_export(export, result.out / "lab-export.tsv")
     for name, path in result.files.items():
         print(f"  {name}: {path}")
     for note in result.notes:
@@ -971,7 +987,17 @@ def _cache(args: argparse.Namespace) -> int:
     return 0
 
 
-GAIT_COMMANDS = {"simulate": _gait_simulate, "identify": _gait_identify}
+def _gait_trial_from_lab(args: argparse.Namespace) -> int:
+    from colloc.cli.lab import run
+
+    return run(args)
+
+
+GAIT_COMMANDS = {
+    "simulate": _gait_simulate,
+    "identify": _gait_identify,
+    "trial-from-lab": _gait_trial_from_lab,
+}
 
 
 def _batch(args: argparse.Namespace) -> int:

@@ -1,0 +1,238 @@
+"""``colloc gait trial-from-lab``: a lab's marker and force-plate exports to a gait trial."""
+
+from __future__ import annotations
+
+import argparse
+import math
+from pathlib import Path
+from typing import Any
+
+from colloc.cli import _number, _path, _report_problems
+
+COMMAND = "colloc gait trial-from-lab"
+
+
+def _names(text: str) -> list[str]:
+    names = [name.strip() for name in text.split(",")]
+    if not all(names):
+        raise argparse.ArgumentTypeError(f"expected names separated by commas, found {text!r}")
+    return names
+
+
+def _pairs(text: str) -> dict[str, str]:
+    """``right=FP2,left=FP1`` -> {"right": "FP2", "left": "FP1"}."""
+    pairs = {}
+    for item in text.split(","):
+        key, sep, value = item.partition("=")
+        if not sep or not key.strip() or not value.strip():
+            raise argparse.ArgumentTypeError(f"expected KEY=NAME[,KEY=NAME...], found {text!r}")
+        pairs[key.strip()] = value.strip()
+    return pairs
+
+
+def _belt(text: str) -> float | str:
+    """A number is a constant speed [m/s]; anything else names a column."""
+    try:
+        return float(text)
+    except ValueError:
+        if not text.strip():
+            raise argparse.ArgumentTypeError("expected a speed or a column name") from None
+        return text.strip()
+
+
+def add_parser(gs: Any) -> None:
+    """Add ``trial-from-lab`` to the ``colloc gait`` subcommands ``gs``."""
+    from colloc.gait.strikes import HEEL_STRIKE_THRESHOLD
+    from colloc.lab.filtering import DEFAULT_CUTOFF_HZ
+    from colloc.lab.gaps import DEFAULT_MAX_GAP
+    from colloc.lab.markers import LANDMARKS
+
+    p = gs.add_parser(
+        "trial-from-lab",
+        help="make a gait trial of a lab's marker and force-plate exports: gaps filled, "
+        "zero-lag filter, planar inverse kinematics and dynamics, heel strikes",
+    )
+    p.add_argument(
+        "markers", type=_path, help="marker export (tab or comma separated; may hold the plates)"
+    )
+    p.add_argument("--forces", type=_path, default=None, help="force-plate export, if separate")
+    p.add_argument("--mass", type=_number, required=True, help="body mass, kg")
+    p.add_argument("--height", type=_number, required=True, help="body height, m")
+    p.add_argument(
+        "--belt-speed",
+        type=_belt,
+        required=True,
+        metavar="M/S|COLUMN",
+        help="treadmill belt speed: a constant in m/s (0 overground) or the export's column",
+    )
+    p.add_argument("--out", type=_path, required=True, help="trial folder to write")
+    p.add_argument("--overwrite", action="store_true", help="replace an existing trial folder")
+    p.add_argument(
+        "--cutoff",
+        type=_number,
+        default=DEFAULT_CUTOFF_HZ,
+        metavar="HZ",
+        help="zero-lag low-pass cut-off for markers and forces (default %(default)s Hz)",
+    )
+    p.add_argument(
+        "--max-gap",
+        type=_number,
+        default=DEFAULT_MAX_GAP,
+        metavar="S",
+        help="longest marker gap filled by a smoothing spline (default %(default)s s)",
+    )
+    p.add_argument(
+        "--strike-threshold",
+        type=_number,
+        default=HEEL_STRIKE_THRESHOLD,
+        metavar="N",
+        help="vertical force whose upward crossing is a heel strike (default %(default)s N, "
+        "as colloc's simulated trials)",
+    )
+    p.add_argument(
+        "--columns",
+        type=_names,
+        default=None,
+        metavar="NAMES",
+        help="column names of a marker file without a header line, separated by commas",
+    )
+    p.add_argument(
+        "--force-columns",
+        type=_names,
+        default=None,
+        metavar="NAMES",
+        help="column names of a force file without a header line",
+    )
+    p.add_argument(
+        "--plates",
+        type=_pairs,
+        default=None,
+        metavar="SIDE=NAME,...",
+        help="the plate under each foot (default right=FP2,left=FP1)",
+    )
+    p.add_argument(
+        "--prefixes",
+        type=_pairs,
+        default=None,
+        metavar="SIDE=PREFIX,...",
+        help="marker name prefix per side (default right=R,left=L)",
+    )
+    p.add_argument(
+        "--marker-names",
+        type=_pairs,
+        default=None,
+        metavar="LANDMARK=NAME,...",
+        help=f"marker names without the side prefix, for the landmarks {', '.join(LANDMARKS)} "
+        "(default SHO, GTRO, LEK, LM, HEE, MT5)",
+    )
+    p.add_argument(
+        "--keep-zeros",
+        action="store_true",
+        help="marker coordinates of exactly 0 are data (by default a sample at 0, 0 is missing)",
+    )
+
+
+def trial_from_lab_checks(args: argparse.Namespace) -> tuple[Any, list[str]]:
+    """The settings of ``colloc gait trial-from-lab`` and every problem found before any work.
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+
+    Returns
+    -------
+    settings : LabSettings or None
+        None when the marker names or plates are themselves invalid.
+    problems : list of str
+    """
+    from colloc.lab.markers import LANDMARKS, MarkerSet
+    from colloc.lab.pipeline import LabSettings
+
+    problems = []
+    names: dict[str, Any] = dict(args.marker_names or {})
+    unknown = sorted(set(names) - set(LANDMARKS))
+    if unknown:
+        problems.append(
+            f"--marker-names: unknown landmarks {unknown}, expected some of {list(LANDMARKS)}"
+        )
+        names = {}
+    if args.prefixes is not None:
+        names["prefixes"] = args.prefixes
+    if args.plates is not None:
+        names["plates"] = args.plates
+    try:
+        marker_set = MarkerSet(**names)
+    except ValueError as error:
+        problems.append(f"--prefixes/--plates: {error}")
+        marker_set = MarkerSet()
+    settings = LabSettings(
+        body_mass=args.mass,
+        height=args.height,
+        belt_speed=args.belt_speed,
+        cutoff_hz=args.cutoff,
+        max_gap=args.max_gap,
+        strike_threshold=args.strike_threshold,
+        marker_set=marker_set,
+        zeros_are_missing=not args.keep_zeros,
+    )
+    flags = {
+        "body_mass": "--mass",
+        "height": "--height",
+        "belt_speed": "--belt-speed",
+        "cutoff_hz": "--cutoff",
+        "max_gap": "--max-gap",
+        "strike_threshold": "--strike-threshold",
+    }
+    for problem in settings.problems():
+        key = problem.split(":", 1)[0]
+        problems.append(f"{flags.get(key, key)}{problem[len(key) :]}")
+    for flag, path in (("markers", args.markers), ("--forces", args.forces)):
+        if path is not None and not path.is_file():
+            problems.append(f"{flag} {str(path)!r}: no such file")
+    if args.out.exists() and not args.overwrite:
+        problems.append(f"--out {str(args.out)!r}: exists; give --overwrite to replace it")
+    elif args.out.exists() and not args.out.is_dir():
+        problems.append(f"--out {str(args.out)!r}: is a file, not a folder")
+    return settings, problems
+
+
+def run(args: argparse.Namespace) -> int:
+    """``colloc gait trial-from-lab``: check, process, write, report."""
+    from colloc.lab.exports import LabFileError
+    from colloc.lab.pipeline import trial_from_lab
+
+    settings, problems = trial_from_lab_checks(args)
+    if _report_problems(COMMAND, problems):
+        return 2
+    try:
+        result = trial_from_lab(
+            args.markers,
+            settings,
+            args.forces,
+            names=args.columns,
+            force_names=args.force_columns,
+        )
+    except LabFileError as error:
+        _report_problems(COMMAND, [f"{error.source}: {p}" for p in error.problems])
+        return 2
+    path = result.trial.write(Path(args.out), overwrite=args.overwrite)
+    trial = result.trial
+    filled = [g for g in result.gaps if g.filled]
+    noise = trial.metadata["noise"]["std"]
+    print(f"trial: {path}")
+    print(
+        f"  {trial.time.size} samples, {trial.time[0]:g}-{trial.time[-1]:g} s at "
+        f"{trial.metadata['sample_rate']:g} Hz; heel strikes: {trial.right_heel_strikes.size} "
+        f"right, {trial.left_heel_strikes.size} left"
+    )
+    longest = max((g.samples for g in filled), default=0)
+    print(
+        f"  gaps filled: {len(filled)} (longest {longest} samples); filter {settings.cutoff_hz:g} Hz"
+    )
+    print(
+        f"  noise estimated: joint angles {math.degrees(noise['joint_angle']):.2f} deg, trunk "
+        f"position {noise['trunk_position'] * 1000:.2f} mm, forces {noise['ground_reaction_force']:.1f} N"
+    )
+    for note in result.notes:
+        print(f"note: {note}")
+    return 0

@@ -1,0 +1,174 @@
+"""The lab pipeline end to end: a simulated walk's markers and plates back to its states,
+torques and heel strikes, from the library and from ``colloc gait trial-from-lab``."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from colloc.cli import main
+from colloc.data.columns import JOINT_ANGLE_COLUMNS, JOINT_RATE_COLUMNS, TORQUE_COLUMNS
+from colloc.data.trial import read_trial
+from colloc.gait.closed_loop import simulate_walking
+from colloc.gait.design import design_controller
+from colloc.gait.orbit import GaitDynamics
+from colloc.gait.walking_cycle import WalkingCycle
+from colloc.lab import (
+    LabFileError,
+    LabNoise,
+    LabSettings,
+    lab_export_from_record,
+    process_lab,
+    write_lab_export,
+)
+from colloc.models.gait2d_params import load_parameters
+
+TESTS = Path(__file__).resolve().parents[1]
+CYCLE_FILE = TESTS / "gait" / "data" / "walking_cycle_60.npz"
+CLIP = TESTS / "data" / "records" / "gatk-leg2d-sagittal-gait-3s" / "rawdata.txt"
+SUBJECT = (75.0, 1.8)  # the stored cycle's subject
+
+
+@pytest.fixture(scope="module")
+def walk():
+    """4 s of closed-loop walking at 100 Hz on a constant 1.2 m/s belt (3 s to make)."""
+    dynamics = GaitDynamics.build()
+    cycle = WalkingCycle.from_npz(CYCLE_FILE)
+    feedback = np.arange(1, 18)
+    _, Tstar, K, info = design_controller(
+        cycle, 200, R=np.eye(6) / 25.0, dynamics=dynamics, num_samples=241, feedback=feedback
+    )
+    record = simulate_walking(
+        cycle, Tstar, K, 4.0, None, dynamics=dynamics, feedback=feedback, sample_rate=100.0
+    )
+    assert not record.fell
+    return record
+
+
+def _contact_events(record) -> np.ndarray:
+    """Where a foot's vertical force crosses 20 N either way (impacts, grazes, toe-offs)."""
+    forces = record.contact_forces[:, 1::2]
+    events = []
+    for foot in (forces[:, 0] + forces[:, 1], forces[:, 2] + forces[:, 3]):
+        events += list(record.times[np.flatnonzero(np.diff((foot > 20.0).astype(int)))])
+    return np.asarray(events)
+
+
+def _rms(x: np.ndarray) -> np.ndarray:
+    return np.sqrt(np.mean(x**2, axis=0))
+
+
+def test_a_simulated_walk_comes_back_from_its_markers_and_plates(walk):
+    params = load_parameters(*SUBJECT)
+    export = lab_export_from_record(walk, params, seed=3)  # 1 mm, 2 N, 1 N m noise
+    result = process_lab(export, LabSettings(*SUBJECT, belt_speed="RightBeltSpeed"))
+    trial, truth = result.trial, walk.states
+    assert result.notes == [] and trial.time.size == walk.times.size
+    angles = trial.signals[list(JOINT_ANGLE_COLUMNS)].to_numpy()
+    rates = trial.signals[list(JOINT_RATE_COLUMNS)].to_numpy()
+    torques = trial.signals[list(TORQUE_COLUMNS)].to_numpy()
+    inner = slice(10, -10)  # the filter's ends
+    near = np.zeros(walk.times.size, bool)
+    for event in _contact_events(walk):
+        near |= np.abs(walk.times - event) < 0.06
+    away = ~near
+    away[:10] = away[-10:] = False
+    # away from contact events (37 % of the samples) the angles are within the 0.25 deg a
+    # lab's processed angles are credited with (colloc.gait.trials.DEFAULT_NOISE_STD);
+    # measured 0.12-0.25 deg, rates 0.09-0.26 rad/s, torques 1.8-2.2 N m
+    assert np.degrees(_rms((angles - truth[:, 3:9])[away])).max() < 0.3
+    assert _rms((rates - truth[:, 12:18])[away]).max() < 0.3
+    assert _rms((torques - walk.torques)[away]).max() < 2.5
+    # over the whole record the ankles lose what the model's stiff contact puts above the
+    # 6 Hz cut-off at each impact (measured 0.69-0.73 deg, 5.7 N m; the same without noise)
+    assert np.degrees(_rms((angles - truth[:, 3:9])[inner])).max() < 0.8
+    assert _rms((torques - walk.torques)[inner]).max() < 6.5
+    # trunk pose from the mean hip and shoulder markers
+    trunk = trial.signals[["trunk_x", "trunk_y", "trunk_angle"]].to_numpy()
+    assert _rms((trunk - truth[:, :3])[inner]).max() < 2e-3  # m and rad
+    # every heel strike, within 15 ms (the filtered force rises earlier: measured 6-13 ms)
+    for side in ("right", "left"):
+        found, true = getattr(trial, f"{side}_heel_strikes"), getattr(walk, f"{side}_heel_strikes")
+        assert found.size == true.size
+        assert np.abs(found - true).max() < 0.015
+    # the noise levels declared for the identification are the record's own: the marker
+    # spread (1 mm drawn) and the plates' (2 N drawn), robust to the impacts
+    noise = trial.metadata["noise"]
+    assert noise["marker_std"] == pytest.approx(1e-3, rel=0.1)
+    assert noise["std"]["ground_reaction_force"] == pytest.approx(2.0, rel=0.35)
+
+
+def test_trial_from_lab_writes_a_trial_that_reads_back_with_what_was_done(walk, tmp_path):
+    params = load_parameters(*SUBJECT)
+    export = lab_export_from_record(walk, params, seed=4, noise=LabNoise(0.001, 2.0, 1.0))
+    # an occluded knee marker for 0.1 s, written as exact zeros as some systems do
+    export.markers["RLEK"][150:160] = 0.0
+    path = write_lab_export(export, tmp_path / "export.tsv")
+    out = tmp_path / "trial"
+    args = ["gait", "trial-from-lab", str(path), "--mass", "75", "--height", "1.8"]
+    args += ["--belt-speed", "RightBeltSpeed", "--out", str(out)]
+    assert main(args) == 0
+    trial = read_trial(out)
+    lab = trial.metadata["lab"]
+    assert lab["gaps"]["list"] == [
+        {"marker": "RLEK", "start": 1.5, "stop": 1.59, "samples": 10, "filled": True}
+    ]
+    assert lab["filter"]["cutoff_hz"] == 6.0 and len(lab["sources"]["markers"]["sha256"]) == 64
+    assert trial.metadata["body_mass"] == 75.0 and trial.right_heel_strikes.size == 4
+    assert trial.signals["belt_speed"].to_numpy() == pytest.approx(1.2)
+    # the filled knee is still the knee: through the gap, the knee angle is within 0.5 deg
+    # of the same pipeline's on the unbroken record
+    unbroken = (
+        process_lab(
+            lab_export_from_record(walk, params, seed=4), LabSettings(*SUBJECT, belt_speed=1.2)
+        )
+        .trial.signals["right_knee_angle"]
+        .to_numpy()[150:160]
+    )
+    knee = trial.signals["right_knee_angle"].to_numpy()[150:160]
+    assert np.degrees(np.abs(knee - unbroken)).max() < 0.5
+    # a second run refuses to replace the trial unless told to
+    assert main(args) == 2
+    assert main([*args, "--overwrite"]) == 0
+
+
+def test_every_problem_of_a_one_legged_record_is_named_before_anything_is_written(tmp_path, capsys):
+    out = tmp_path / "trial"
+    code = main(
+        ["gait", "trial-from-lab", str(CLIP), "--mass", "67.2", "--height", "1.7"]
+        + ["--belt-speed", "1.1", "--out", str(out)]
+    )
+    assert code == 2 and not out.exists()
+    err = capsys.readouterr().err
+    # the left leg's six markers and its plate, in one report
+    assert "LSHO, LGTRO, LLEK, LLM, LHEE, LMT5 not in" in err
+    assert "plates: FP1 not in" in err
+    with pytest.raises(LabFileError) as info:
+        process_lab(lab_export_from_record_stub(), LabSettings(-1.0, 1.8, belt_speed="none"))
+    assert any(p.startswith("body_mass") for p in info.value.problems)
+    assert any("belt_speed: no column 'none'" in p for p in info.value.problems)
+
+
+def lab_export_from_record_stub():
+    from colloc.lab import read_lab_export
+
+    return read_lab_export(CLIP)
+
+
+def test_bad_flags_are_named_before_reading(tmp_path, capsys):
+    code = main(
+        ["gait", "trial-from-lab", str(tmp_path / "none.tsv"), "--mass", "75", "--height", "9"]
+        + ["--belt-speed", "1.1", "--out", str(tmp_path / "t"), "--cutoff", "0"]
+        + ["--marker-names", "elbow=ELB"]
+    )
+    assert code == 2
+    err = capsys.readouterr().err
+    for expected in (
+        "--height",
+        "--cutoff",
+        "--marker-names: unknown landmarks ['elbow']",
+        "no such file",
+    ):
+        assert expected in err
