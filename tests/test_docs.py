@@ -168,6 +168,19 @@ GAIT_FIGURES = ("gait-schedule-tstar.png", "gait-schedule-stiffness.png")
 #: A measured run's figures (the 8-minute trial's 360 s fit, docs/gait.md), committed as
 #: measured: no test can afford the run; the pages' figures must still exist.
 MEASURED_FIGURES = ("gait-8min-stiffness.png", "gait-8min-vaf.png", "gait-8min-walk.png")
+LAB_FIGURES = ("lab-clip-kinematics.png", "lab-clip-moments.png")
+
+
+def test_the_lab_example_draws_the_real_clips_figures(tmp_path):
+    sys.path.insert(0, str(DOCS / "examples"))
+    try:
+        import lab_clip
+    finally:
+        sys.path.pop(0)
+    clip = ROOT / "tests" / "data" / "records" / "gatk-leg2d-sagittal-gait-3s"
+    written = lab_clip.main(clip, tmp_path)
+    assert sorted(p.name for p in written) == sorted(LAB_FIGURES)
+    assert all(p.stat().st_size > 10_000 for p in written)
 
 
 def test_the_gait_example_draws_a_trials_schedule(tmp_path):
@@ -193,7 +206,9 @@ def test_the_pendulum_example_draws_the_figures_the_pages_show(tmp_path, capsys)
     for page in DOCS.glob("*.md"):
         shown |= set(re.findall(r"\(figures/([\w.-]+\.png)\)", page.read_text()))
     assert (
-        shown - {"own-model.png", "unknown-input.png", *GAIT_FIGURES, *MEASURED_FIGURES} <= written
+        shown
+        - {"own-model.png", "unknown-input.png", *GAIT_FIGURES, *MEASURED_FIGURES, *LAB_FIGURES}
+        <= written
     )
     assert all((DOCS / "figures" / name).is_file() for name in shown)  # committed for the site
     assert "k_0_0: known" in capsys.readouterr().out
