@@ -42,8 +42,8 @@ def _belt(text: str) -> float | str:
 
 def add_parser(gs: Any) -> None:
     """Add ``trial-from-lab`` to the ``colloc gait`` subcommands ``gs``."""
+    from colloc.data.filtering import DEFAULT_CUTOFF_HZ
     from colloc.gait.strikes import HEEL_STRIKE_THRESHOLD
-    from colloc.lab.filtering import DEFAULT_CUTOFF_HZ
     from colloc.lab.gaps import DEFAULT_MAX_GAP
     from colloc.lab.markers import LANDMARKS
 

@@ -4,7 +4,8 @@ from __future__ import annotations
 
 import numpy as np
 from numpy.typing import ArrayLike
-from scipy.signal import butter, filtfilt
+
+from colloc.data.filtering import zero_lag_lowpass
 
 DEFAULT_MIN_INTERVAL = 0.4
 """Default de-bounce interval [s]: shorter than any walking or running stride of one foot."""
@@ -37,7 +38,8 @@ def _validated(time: ArrayLike, vertical_force: ArrayLike) -> tuple[np.ndarray, 
 
 
 def lowpass(time: np.ndarray, signal: np.ndarray, cutoff_hz: float) -> np.ndarray:
-    """Zero-lag low-pass filter a signal with a 2nd-order Butterworth filter (filtfilt).
+    """Zero-lag low-pass filter a signal with a 2nd-order Butterworth filter, each pass at
+    ``cutoff_hz`` (:func:`colloc.data.filtering.zero_lag_lowpass` with ``per_pass``).
 
     Gait-lab clocks jitter, so the signal is first interpolated onto a uniform grid with
     the same number of samples and span, filtered there, and interpolated back.
@@ -64,8 +66,9 @@ def lowpass(time: np.ndarray, signal: np.ndarray, cutoff_hz: float) -> np.ndarra
             f"cutoff_hz (lowpass_hz) must lie strictly between 0 and the Nyquist frequency "
             f"{nyquist:.6g} Hz, found {cutoff_hz}"
         )
-    b, a = butter(_FILTER_ORDER, cutoff_hz / nyquist)
-    filtered = filtfilt(b, a, np.interp(grid, time, signal))
+    filtered = zero_lag_lowpass(
+        np.interp(grid, time, signal), sample_rate, cutoff_hz, _FILTER_ORDER, per_pass=True
+    )
     return np.interp(time, grid, filtered)
 
 

@@ -321,22 +321,11 @@ def lowpass(times: np.ndarray, values: np.ndarray, cutoff_hz: float, order: int 
         When the sampling is not uniform, the cut-off is not below the Nyquist frequency, or
         the record is too short for the filter's edge padding.
     """
-    from scipy.signal import butter, filtfilt
-
+    from colloc.data.filtering import zero_lag_lowpass
     from colloc.identify.direct import uniform_step
 
     h = uniform_step(times, "the Butterworth filter")
-    nyquist = 0.5 / h
-    if not 0 < cutoff_hz < nyquist:
-        raise ValueError(
-            f"cutoff_hz: expected a value between 0 and the Nyquist frequency {nyquist:g} Hz, "
-            f"found {cutoff_hz!r}"
-        )
-    b, a = butter(order, cutoff_hz / nyquist)
-    pad = 3 * max(len(a), len(b))
-    if len(times) <= pad:
-        raise ValueError(f"times: expected more than {pad} samples to filter, found {len(times)}")
-    return np.asarray(filtfilt(b, a, values, axis=0))
+    return zero_lag_lowpass(values, 1.0 / h, cutoff_hz, order, per_pass=True)
 
 
 def consistent_completion(

@@ -8,9 +8,9 @@ strikes, and returns a :class:`colloc.data.Trial` that ``colloc gait identify`` 
 walk, to check the pipeline against the truth.
 """
 
+from colloc.data.filtering import dual_pass_correction, time_derivative, zero_lag_lowpass
 from colloc.lab.dynamics import JointLoads, LegInertia, leg_inverse_dynamics
 from colloc.lab.exports import LabExport, LabFileError, read_lab_export
-from colloc.lab.filtering import dual_pass_correction, time_derivative, zero_lag_lowpass
 from colloc.lab.gaps import Gap, fill_gaps
 from colloc.lab.kinematics import (
     LEG2D_SIGNS,

@@ -21,7 +21,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from colloc.lab.filtering import time_derivative
+from colloc.data.filtering import time_derivative
 from colloc.models.gait2d_params import Gait2DParameters
 
 

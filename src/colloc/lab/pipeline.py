@@ -7,7 +7,7 @@ The steps a gait lab takes, each stated in the trial's metadata (``lab``):
 2. fill each marker's interior gaps up to ``max_gap`` by a smoothing spline and cut the record to
    where every marker was seen (:func:`colloc.lab.gaps.fill_gaps`);
 3. low-pass filter markers and plate signals alike, zero lag, -3 dB at ``cutoff_hz``
-   (:func:`colloc.lab.filtering.zero_lag_lowpass`);
+   (:func:`colloc.data.filtering.zero_lag_lowpass`);
 4. planar inverse kinematics: trunk pose from the hip and shoulder markers (both sides'
    mean), each side's hip, knee and ankle angles in gait2d's conventions, rates by central
    differences (:mod:`colloc.lab.kinematics`);
@@ -48,17 +48,17 @@ from colloc.data.columns import (
     TRUNK_RATE_COLUMNS,
 )
 from colloc.data.events import detect_heel_strikes
-from colloc.data.trial import Trial
-from colloc.gait.strikes import HEEL_STRIKE_THRESHOLD, UNLOADED_FORCE
-from colloc.lab.dynamics import LegInertia, leg_inverse_dynamics
-from colloc.lab.exports import LabExport, LabFileError, read_lab_export
-from colloc.lab.filtering import (
+from colloc.data.filtering import (
     DEFAULT_CUTOFF_HZ,
     DEFAULT_ORDER,
     design_cutoff,
     time_derivative,
     zero_lag_lowpass,
 )
+from colloc.data.trial import Trial
+from colloc.gait.strikes import HEEL_STRIKE_THRESHOLD, UNLOADED_FORCE
+from colloc.lab.dynamics import LegInertia, leg_inverse_dynamics
+from colloc.lab.exports import LabExport, LabFileError, read_lab_export
 from colloc.lab.gaps import DEFAULT_MAX_GAP, GAP_CONTEXT, Gap, fill_gaps
 from colloc.lab.kinematics import joint_angles, segment_orientation, segment_orientations
 from colloc.lab.markers import LANDMARKS, MarkerSet

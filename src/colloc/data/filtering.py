@@ -1,4 +1,4 @@
-"""Zero-lag low-pass filtering and differentiation of lab signals.
+"""Zero-lag low-pass filtering and differentiation of measured signals.
 
 Labs filter markers and force-plate signals with a low-order Butterworth filter run forward
 and backward (no lag), at a cut-off of about 6 Hz for walking (Winter, *Biomechanics and Motor
@@ -71,6 +71,8 @@ def zero_lag_lowpass(
     sample_rate: float,
     cutoff_hz: float = DEFAULT_CUTOFF_HZ,
     order: int = DEFAULT_ORDER,
+    *,
+    per_pass: bool = False,
 ) -> np.ndarray:
     """Low-pass filter samples forward and backward, -3 dB at ``cutoff_hz`` overall.
 
@@ -85,6 +87,9 @@ def zero_lag_lowpass(
         designed at :func:`design_cutoff`).
     order : int
         Order per pass (the overall filter has twice this order).
+    per_pass : bool
+        Design each pass at ``cutoff_hz`` itself (the two passes are then at -6 dB there),
+        as filters without Winter's correction do; default False.
 
     Returns
     -------
@@ -94,8 +99,9 @@ def zero_lag_lowpass(
     Raises
     ------
     ValueError
-        If the cut-off is not positive and below the Nyquist frequency, the order is not a positive integer, the signal holds NaN/inf, or it is
-        too short for the filter's start-up (fewer than ``6 order + 4`` samples).
+        If the cut-off is not positive and below the Nyquist frequency, the order is not a
+        positive integer, the signal holds NaN/inf, or it is too short for the filter's edge
+        padding (10 samples for order 2).
     """
     values = np.asarray(values, dtype=float)
     problems = []
@@ -112,13 +118,13 @@ def zero_lag_lowpass(
         problems.append(
             f"values: {int((~np.isfinite(values)).sum())} NaN/inf samples (fill gaps first)"
         )
-    if values.shape[0] < 6 * order + 4:
-        problems.append(
-            f"values: {values.shape[0]} samples, the filter needs at least {6 * order + 4}"
-        )
+    needed = 3 * (2 * math.ceil(order / 2) + 1) + 1  # more than sosfiltfilt's edge padding
+    if values.shape[0] < needed:
+        problems.append(f"values: {values.shape[0]} samples, the filter needs at least {needed}")
     if problems:
         raise ValueError("; ".join(problems))
-    sos = butter(order, design_cutoff(cutoff_hz, sample_rate, order), fs=sample_rate, output="sos")
+    design = cutoff_hz if per_pass else design_cutoff(cutoff_hz, sample_rate, order)
+    sos = butter(order, design, fs=sample_rate, output="sos")
     return np.asarray(sosfiltfilt(sos, values, axis=0))
 
 
