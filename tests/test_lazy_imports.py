@@ -9,7 +9,7 @@ import sys
 
 import pytest
 
-LAZY_PACKAGES = ("colloc", "colloc.identify", "colloc.plot", "colloc.store")
+LAZY_PACKAGES = ("colloc", "colloc.identify", "colloc.lab", "colloc.plot", "colloc.store")
 HEAVY = ("pandas", "matplotlib", "sqlalchemy", "colloc.plot.pendulum", "colloc.store.runs")
 
 

@@ -20,6 +20,7 @@ import numpy as np
 from scipy.io import loadmat
 
 from colloc.lab import (
+    DEFAULT_MARKER_SET,
     LEG2D_SIGNS,
     LegInertia,
     angles_from_leg2d,
@@ -35,14 +36,7 @@ from colloc.models.gait2d_params import load_parameters
 from colloc.plot import save_figure
 
 MASS = 67.2  # kg, the clip's subject (leg2d's test)
-RIGHT = {
-    "shoulder": "RSHO",
-    "hip": "RGTRO",
-    "knee": "RLEK",
-    "ankle": "RLM",
-    "heel": "RHEE",
-    "toe": "RMT5",
-}
+RIGHT = DEFAULT_MARKER_SET.side_markers("right")  # RSHO, RGTRO, RLEK, RLM, RHEE, RMT5
 JOINTS = ("hip", "knee", "ankle")
 
 

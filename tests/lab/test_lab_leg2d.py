@@ -18,6 +18,7 @@ import pytest
 from scipy.io import loadmat
 
 from colloc.lab import (
+    DEFAULT_MARKER_SET,
     LEG2D_SIGNS,
     LegInertia,
     angles_from_leg2d,
@@ -36,14 +37,7 @@ from colloc.plot.gait_animation import StickFigureGeometry, stick_figure_points
 RECORDS = Path(__file__).resolve().parents[1] / "data" / "records" / "gatk-leg2d-sagittal-gait-3s"
 MASS = 67.2  # subject 7 of the HBM paper (leg2d's test)
 REFERENCE_CUTOFF = 4.0  # what refresults.mat was computed with
-RIGHT = {
-    "shoulder": "RSHO",
-    "hip": "RGTRO",
-    "knee": "RLEK",
-    "ankle": "RLM",
-    "heel": "RHEE",
-    "toe": "RMT5",
-}
+RIGHT = DEFAULT_MARKER_SET.side_markers("right")  # RSHO, RGTRO, RLEK, RLM, RHEE, RMT5
 
 
 def test_two_passes_are_minus_3_db_at_the_cutoff_without_lag():

@@ -100,7 +100,7 @@ def test_a_simulated_walk_comes_back_from_its_markers_and_plates(walk):
     assert noise["std"]["ground_reaction_force"] == pytest.approx(2.0, rel=0.35)
 
 
-def test_trial_from_lab_writes_a_trial_that_reads_back_with_what_was_done(walk, tmp_path):
+def test_trial_from_lab_writes_a_trial_that_reads_back_with_what_was_done(walk, tmp_path, capsys):
     params = load_parameters(*SUBJECT)
     export = lab_export_from_record(walk, params, seed=4, noise=LabNoise(0.001, 2.0, 1.0))
     # an occluded knee marker for 0.1 s, written as exact zeros as some systems do
@@ -132,6 +132,12 @@ def test_trial_from_lab_writes_a_trial_that_reads_back_with_what_was_done(walk, 
     # a second run refuses to replace the trial unless told to
     assert main(args) == 2
     assert main([*args, "--overwrite"]) == 0
+    # a heel marker hidden for 0.6 s is not guessed at, and the trial written before stays
+    export.markers["LHEE"][100:160] = np.nan
+    write_lab_export(export, path)
+    assert main([*args, "--overwrite"]) == 2
+    assert "marker LHEE: missing from 1 to 1.59 s (60 samples" in capsys.readouterr().err
+    assert read_trial(out).metadata["lab"]["gaps"]["list"][0]["marker"] == "RLEK"
 
 
 def test_every_problem_of_a_one_legged_record_is_named_before_anything_is_written(tmp_path, capsys):

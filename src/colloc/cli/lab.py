@@ -42,11 +42,6 @@ def _belt(text: str) -> float | str:
 
 def add_parser(gs: Any) -> None:
     """Add ``trial-from-lab`` to the ``colloc gait`` subcommands ``gs``."""
-    from colloc.data.filtering import DEFAULT_CUTOFF_HZ
-    from colloc.gait.strikes import HEEL_STRIKE_THRESHOLD
-    from colloc.lab.gaps import DEFAULT_MAX_GAP
-    from colloc.lab.markers import LANDMARKS
-
     p = gs.add_parser(
         "trial-from-lab",
         help="make a gait trial of a lab's marker and force-plate exports: gaps filled, "
@@ -70,24 +65,24 @@ def add_parser(gs: Any) -> None:
     p.add_argument(
         "--cutoff",
         type=_number,
-        default=DEFAULT_CUTOFF_HZ,
+        default=None,
         metavar="HZ",
-        help="zero-lag low-pass cut-off for markers and forces (default %(default)s Hz)",
+        help="zero-lag low-pass cut-off (-3 dB) for markers and forces (default 6 Hz)",
     )
     p.add_argument(
         "--max-gap",
         type=_number,
-        default=DEFAULT_MAX_GAP,
+        default=None,
         metavar="S",
-        help="longest marker gap filled by a smoothing spline (default %(default)s s)",
+        help="longest marker gap filled by a smoothing spline (default 0.25 s)",
     )
     p.add_argument(
         "--strike-threshold",
         type=_number,
-        default=HEEL_STRIKE_THRESHOLD,
+        default=None,
         metavar="N",
-        help="vertical force whose upward crossing is a heel strike (default %(default)s N, "
-        "as colloc's simulated trials)",
+        help="vertical force whose upward crossing is a heel strike (default 100 N, as "
+        "colloc's simulated trials)",
     )
     p.add_argument(
         "--columns",
@@ -122,8 +117,8 @@ def add_parser(gs: Any) -> None:
         type=_pairs,
         default=None,
         metavar="LANDMARK=NAME,...",
-        help=f"marker names without the side prefix, for the landmarks {', '.join(LANDMARKS)} "
-        "(default SHO, GTRO, LEK, LM, HEE, MT5)",
+        help="marker names without the side prefix, for the landmarks shoulder, hip, knee, "
+        "ankle, heel, toe (default SHO, GTRO, LEK, LM, HEE, MT5)",
     )
     p.add_argument(
         "--keep-zeros",
@@ -165,15 +160,19 @@ def trial_from_lab_checks(args: argparse.Namespace) -> tuple[Any, list[str]]:
     except ValueError as error:
         problems.append(f"--prefixes/--plates: {error}")
         marker_set = MarkerSet()
+    # flags left out take the settings' defaults (defined once, in LabSettings)
+    given = {
+        "cutoff_hz": args.cutoff,
+        "max_gap": args.max_gap,
+        "strike_threshold": args.strike_threshold,
+    }
     settings = LabSettings(
         body_mass=args.mass,
         height=args.height,
         belt_speed=args.belt_speed,
-        cutoff_hz=args.cutoff,
-        max_gap=args.max_gap,
-        strike_threshold=args.strike_threshold,
         marker_set=marker_set,
         zeros_are_missing=not args.keep_zeros,
+        **{key: value for key, value in given.items() if value is not None},
     )
     flags = {
         "body_mass": "--mass",

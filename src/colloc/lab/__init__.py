@@ -6,47 +6,59 @@ gait2d's conventions and each leg's inverse dynamics with gait2d's segments, det
 strikes, and returns a :class:`colloc.data.Trial` that ``colloc gait identify`` reads.
 :func:`lab_export_from_record` makes the exports a lab would have recorded of a simulated
 walk, to check the pipeline against the truth.
+
+Names load on first use (``colloc._lazy``).
 """
 
-from colloc.data.filtering import dual_pass_correction, time_derivative, zero_lag_lowpass
-from colloc.lab.dynamics import JointLoads, LegInertia, leg_inverse_dynamics
-from colloc.lab.exports import LabExport, LabFileError, read_lab_export
-from colloc.lab.gaps import Gap, fill_gaps
-from colloc.lab.kinematics import (
-    LEG2D_SIGNS,
-    angles_from_leg2d,
-    joint_angles,
-    segment_orientation,
-    segment_orientations,
-)
-from colloc.lab.markers import DEFAULT_MARKER_SET, MarkerSet
-from colloc.lab.pipeline import LabResult, LabSettings, process_lab, trial_from_lab
-from colloc.lab.synthetic import LabNoise, lab_export_from_record, write_lab_export
+# ruff: noqa: F401  (the TYPE_CHECKING imports are re-exported by __all__, built from _EXPORTS)
+from typing import TYPE_CHECKING
 
-__all__ = [
-    "DEFAULT_MARKER_SET",
-    "LEG2D_SIGNS",
-    "Gap",
-    "JointLoads",
-    "LabExport",
-    "LabFileError",
-    "LabNoise",
-    "LabResult",
-    "LabSettings",
-    "LegInertia",
-    "MarkerSet",
-    "angles_from_leg2d",
-    "dual_pass_correction",
-    "fill_gaps",
-    "joint_angles",
-    "lab_export_from_record",
-    "leg_inverse_dynamics",
-    "process_lab",
-    "read_lab_export",
-    "segment_orientation",
-    "segment_orientations",
-    "time_derivative",
-    "trial_from_lab",
-    "write_lab_export",
-    "zero_lag_lowpass",
-]
+from colloc._lazy import lazy_exports
+
+_EXPORTS = {
+    "JointLoads": "colloc.lab.dynamics",
+    "LegInertia": "colloc.lab.dynamics",
+    "leg_inverse_dynamics": "colloc.lab.dynamics",
+    "LabExport": "colloc.lab.exports",
+    "LabFileError": "colloc.lab.exports",
+    "read_lab_export": "colloc.lab.exports",
+    "dual_pass_correction": "colloc.data.filtering",
+    "time_derivative": "colloc.data.filtering",
+    "zero_lag_lowpass": "colloc.data.filtering",
+    "Gap": "colloc.lab.gaps",
+    "fill_gaps": "colloc.lab.gaps",
+    "LEG2D_SIGNS": "colloc.lab.kinematics",
+    "angles_from_leg2d": "colloc.lab.kinematics",
+    "joint_angles": "colloc.lab.kinematics",
+    "segment_orientation": "colloc.lab.kinematics",
+    "segment_orientations": "colloc.lab.kinematics",
+    "DEFAULT_MARKER_SET": "colloc.lab.markers",
+    "MarkerSet": "colloc.lab.markers",
+    "LabResult": "colloc.lab.pipeline",
+    "LabSettings": "colloc.lab.pipeline",
+    "process_lab": "colloc.lab.pipeline",
+    "trial_from_lab": "colloc.lab.pipeline",
+    "LabNoise": "colloc.lab.synthetic",
+    "lab_export_from_record": "colloc.lab.synthetic",
+    "write_lab_export": "colloc.lab.synthetic",
+}
+
+__getattr__, __dir__ = lazy_exports(__name__, _EXPORTS, globals())
+
+if TYPE_CHECKING:  # for type checkers; re-exported through __all__
+    from colloc.data.filtering import dual_pass_correction, time_derivative, zero_lag_lowpass
+    from colloc.lab.dynamics import JointLoads, LegInertia, leg_inverse_dynamics
+    from colloc.lab.exports import LabExport, LabFileError, read_lab_export
+    from colloc.lab.gaps import Gap, fill_gaps
+    from colloc.lab.kinematics import (
+        LEG2D_SIGNS,
+        angles_from_leg2d,
+        joint_angles,
+        segment_orientation,
+        segment_orientations,
+    )
+    from colloc.lab.markers import DEFAULT_MARKER_SET, MarkerSet
+    from colloc.lab.pipeline import LabResult, LabSettings, process_lab, trial_from_lab
+    from colloc.lab.synthetic import LabNoise, lab_export_from_record, write_lab_export
+
+__all__ = list(_EXPORTS)

@@ -20,6 +20,8 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.interpolate import make_smoothing_spline
 
+from colloc.lab.exports import LabFileError
+
 #: Longest interior gap filled by default [s]: a quarter second, under a quarter of a
 #: stride, over which a spline through walking markers stays within millimetres.
 DEFAULT_MAX_GAP = 0.25
@@ -95,10 +97,11 @@ def fill_gaps(
 
     Raises
     ------
-    ValueError
+    LabFileError
         Naming every marker with a gap longer than ``max_gap`` (where and how long), every
-        marker with fewer than 4 seen samples, and a ``max_gap`` that is not a non-negative
-        number.
+        marker with fewer than 4 seen samples, or no stretch with every marker seen.
+    ValueError
+        If ``max_gap`` is not a non-negative number.
     """
     if not (isinstance(max_gap, int | float) and np.isfinite(max_gap) and max_gap >= 0):
         raise ValueError(f"max_gap: expected a non-negative number of seconds, found {max_gap!r}")
@@ -137,10 +140,13 @@ def fill_gaps(
                 xy[start : stop + 1, axis] = spline(time[start : stop + 1])
         filled[name] = xy
     if problems:
-        raise ValueError("; ".join(problems))
+        raise LabFileError("markers", problems)
     if last - first < 1:
-        raise ValueError(
-            "no stretch of the record has every marker seen: "
-            + ", ".join(f"{g.marker} {g.start:g}-{g.stop:g} s" for g in gaps if not g.filled)
+        raise LabFileError(
+            "markers",
+            [
+                "no stretch of the record has every marker seen: "
+                + ", ".join(f"{g.marker} {g.start:g}-{g.stop:g} s" for g in gaps if not g.filled)
+            ],
         )
     return filled, gaps, slice(first, last + 1)
