@@ -346,7 +346,7 @@ def process_lab(
     notes += length_notes
     noise = _noise(angles, trunk, loads, raw, smooth, settings)
     metadata = {
-        "sample_rate": fs,
+        "sample_rate": float(f"{fs:.9g}"),  # not 99.99999999999991 from the time stamps
         "body_mass": float(settings.body_mass),
         "height": float(settings.height),
         "noise": noise,
