@@ -9,6 +9,7 @@ watchdog stopped it within its limit, relayed every report in order, and that
 from __future__ import annotations
 
 import os
+import tempfile
 import time
 
 import numpy as np
@@ -90,7 +91,12 @@ def decay_problem(cache=True):
 
 
 @pytest.mark.parametrize("from_cache", [True, False])
-def test_a_crash_after_a_cache_load_says_the_cache_may_be_at_fault(tmp_path, from_cache):
+def test_a_crash_after_a_cache_load_says_the_cache_may_be_at_fault(
+    tmp_path, from_cache, monkeypatch
+):
+    scratch = tmp_path / "tmp"
+    scratch.mkdir()
+    monkeypatch.setattr(tempfile, "tempdir", str(scratch))
     decay_problem(cache=tmp_path)  # the first build writes the entry
     problem, z0, _ = decay_problem(cache=tmp_path if from_cache else False)
     assert problem.cache_hit is from_cache
@@ -107,6 +113,8 @@ def test_a_crash_after_a_cache_load_says_the_cache_may_be_at_fault(tmp_path, fro
         problem.solve(z0, print_level=0, stall_seconds=10.0)
     notes = " ".join(getattr(err.value, "__notes__", []))
     assert ("colloc cache clear" in notes) is from_cache
+    # the crashed child's IPOPT log folder does not stay behind (it did, one per crash)
+    assert list(scratch.iterdir()) == []
 
 
 def test_a_stalled_exact_solve_is_solved_again_with_the_limited_memory_hessian():

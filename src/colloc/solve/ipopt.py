@@ -148,16 +148,29 @@ def solve_nlp(
             f"stall_seconds: expected a positive number or None, found {stall_seconds!r}"
         )
 
-    def task(report: Callable[[dict[str, float]], object] | None) -> SolveResult:
-        return _solve(nlp, x0, lower, upper, hessian, report, log_path, options, variable_scale)
+    # the temporary log's folder belongs to this process: a watched child that is killed
+    # (stalled, crashed) cannot clean up after itself
+    scratch = None
+    if log_path is None:
+        scratch = tempfile.TemporaryDirectory(prefix="colloc-ipopt-")
+        log_file = Path(scratch.name) / "ipopt.log"
+    else:
+        log_file = Path(log_path)
 
-    if stall_seconds is None or not watch_available():
-        result = task(progress)
-        result.options["watchdog_seconds"] = None
+    def task(report: Callable[[dict[str, float]], object] | None) -> SolveResult:
+        return _solve(nlp, x0, lower, upper, hessian, report, log_file, options, variable_scale)
+
+    try:
+        if stall_seconds is None or not watch_available():
+            result = task(progress)
+            result.options["watchdog_seconds"] = None
+            return result
+        result = run_watched(task, progress, float(stall_seconds))
+        result.options["watchdog_seconds"] = float(stall_seconds)
         return result
-    result = run_watched(task, progress, float(stall_seconds))
-    result.options["watchdog_seconds"] = float(stall_seconds)
-    return result
+    finally:
+        if scratch is not None:
+            scratch.cleanup()
 
 
 def _solve(
@@ -167,11 +180,11 @@ def _solve(
     upper: np.ndarray,
     hessian: str,
     progress: Callable[[dict[str, float]], object] | None,
-    log_path: str | os.PathLike[str] | None,
+    log_path: str | os.PathLike[str],
     options: Mapping[str, Any] | None,
     variable_scale: np.ndarray | None,
 ) -> SolveResult:
-    """One IPOPT solve in this process (see :func:`solve_nlp`)."""
+    """One IPOPT solve in this process (see :func:`solve_nlp`), its log written to ``log_path``."""
     approximation = "limited-memory" if hessian == "limited-memory" else "exact"
     opts = {**DEFAULT_OPTIONS, "hessian_approximation": approximation, **dict(options or {})}
     scale = np.ones(nlp.n) if variable_scale is None else np.asarray(variable_scale, float)
@@ -179,13 +192,8 @@ def _solve(
     lower, upper = _scaled_bound(lower, scale), _scaled_bound(upper, scale)
     callbacks = _Callbacks(inner, progress, gauss_newton=hessian == "gauss-newton")
     problem = CProblem(nlp.n, nlp.m, callbacks, lower, upper, np.zeros(nlp.m), np.zeros(nlp.m))
-    tmp_dir = None
-    if log_path is None:
-        tmp_dir = tempfile.TemporaryDirectory(prefix="colloc-ipopt-")
-        log_file = Path(tmp_dir.name) / "ipopt.log"
-    else:
-        log_file = Path(log_path)
-        log_file.parent.mkdir(parents=True, exist_ok=True)
+    log_file = Path(log_path)
+    log_file.parent.mkdir(parents=True, exist_ok=True)
     opts.setdefault("print_level", 0)
     opts.setdefault("file_print_level", 5)
     opts["output_file"] = str(log_file)
@@ -202,8 +210,6 @@ def _solve(
         log = log_file.read_text(errors="replace") if log_file.is_file() else ""
     finally:
         problem.close()
-        if tmp_dir is not None:
-            tmp_dir.cleanup()
     g = np.asarray(info["g"], dtype=float)
     iterations = int(callbacks.history[-1]["iteration"]) if callbacks.history else 0
     return SolveResult(
