@@ -205,3 +205,19 @@ def test_plates_in_their_own_file_at_their_own_rate_give_the_same_trial(walk, tm
     assert np.sqrt(np.mean(difference**2)) < 0.5  # N m; measured 0.07
     assert apart.right_heel_strikes == pytest.approx(together.right_heel_strikes, abs=0.005)
     assert set(apart.metadata["lab"]["sources"]) == {"markers", "forces"}
+
+
+def test_the_help_states_the_settings_defaults(capsys):
+    """The parser imports nothing heavy, so its help writes the defaults out: they must be
+    LabSettings' own."""
+    with pytest.raises(SystemExit):
+        main(["gait", "trial-from-lab", "--help"])
+    text = " ".join(capsys.readouterr().out.split())
+    defaults = LabSettings(75.0, 1.8, belt_speed=0.0)
+    assert f"(default {defaults.cutoff_hz:g} Hz)" in text
+    assert f"(default {defaults.max_gap:g} s)" in text
+    assert f"(default {defaults.strike_threshold:g} N," in text
+    ms = defaults.marker_set
+    names = ", ".join(getattr(ms, k) for k in ("shoulder", "hip", "knee", "ankle", "heel", "toe"))
+    assert f"(default {names})" in text
+    assert "(default right=FP2,left=FP1)" in text and "(default right=R,left=L)" in text
