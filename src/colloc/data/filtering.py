@@ -7,8 +7,8 @@ the stated cut-off would be at -6 dB there; the design cut-off is raised by the 
 puts the two passes together at -3 dB at the stated cut-off: for an order-``n`` Butterworth
 twice, ``(sqrt(2) - 1) ** (1 / (2 n))`` (0.802 for the usual second order, Winter's
 correction), applied to the digital filter's warped frequency ``tan(pi f / fs)`` so that the
--3 dB point is exact at any sample rate. Markers and forces get the same filter, so that the inertial and the
-ground-reaction terms of inverse dynamics see the same bandwidth.
+-3 dB point is exact at any sample rate. Markers and forces get the same filter, so that the
+inertial and the ground-reaction terms of inverse dynamics see the same bandwidth.
 
 Rates are central differences of the filtered signal (second order, one-sided second order at
 the ends; :func:`numpy.gradient`): at 100 Hz they follow the derivative to within 2.4 % at the

@@ -62,7 +62,7 @@ from colloc.lab.exports import LabExport, LabFileError, read_lab_export
 from colloc.lab.gaps import DEFAULT_MAX_GAP, GAP_CONTEXT, Gap, fill_gaps
 from colloc.lab.kinematics import joint_angles, segment_orientation, segment_orientations
 from colloc.lab.markers import LANDMARKS, MarkerSet
-from colloc.models.gait2d_params import load_parameters
+from colloc.models.gait2d_params import Gait2DParameters, load_parameters
 from colloc.store.ids import package_versions
 
 #: Largest change of a segment's marker length over the record [m] before the markers are
@@ -301,7 +301,8 @@ def process_lab(
         trunk[label] = np.column_stack([hip, segment_orientation(hip, shoulder, (0.0, 1.0))])
     angles: dict[str, list[np.ndarray]] = {"raw": [], "smooth": []}
     torques = []
-    inertia = LegInertia.from_parameters(load_parameters(settings.body_mass, settings.height))
+    params = load_parameters(settings.body_mass, settings.height)
+    inertia = LegInertia.from_parameters(params)
     for side in SIDES:
         oriented = {}
         for label, source in (("raw", raw), ("smooth", smooth)):
@@ -340,7 +341,7 @@ def process_lab(
         side: detect_heel_strikes(time, loads[side]["smooth"][:, 1], settings.strike_threshold)
         for side in SIDES
     }
-    length_problems, lengths, length_notes = _segment_lengths(smooth, ms, settings)
+    length_problems, lengths, length_notes = _segment_lengths(smooth, ms, params)
     if length_problems:
         raise LabFileError("lab record", length_problems)
     notes += length_notes
@@ -413,10 +414,9 @@ def _ground_reaction(load: np.ndarray) -> np.ndarray:
 
 
 def _segment_lengths(
-    smooth: dict[str, np.ndarray], ms: MarkerSet, settings: LabSettings
+    smooth: dict[str, np.ndarray], ms: MarkerSet, params: Gait2DParameters
 ) -> tuple[list[str], dict[str, Any], list[str]]:
     """Swapped-marker check and the measured lengths against the model's."""
-    params = load_parameters(settings.body_mass, settings.height)
     model = {
         "thigh": params.thigh.length,
         "shank": params.shank.length,
@@ -440,7 +440,7 @@ def _segment_lengths(
             if abs(mean / model[segment] - 1.0) > LENGTH_NOTE_FRACTION:
                 notes.append(
                     f"{side} {segment}: markers {mean:.3f} m apart, the model's segment for "
-                    f"{settings.height:g} m is {model[segment]:.3f} m; check the height"
+                    f"{params.height:g} m is {model[segment]:.3f} m; check the height"
                 )
     return problems, lengths, notes
 
