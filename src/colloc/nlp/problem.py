@@ -3,9 +3,7 @@
 from __future__ import annotations
 
 import time
-import warnings
 from collections.abc import Callable, Mapping, Sequence
-from dataclasses import replace
 from typing import Any
 
 import numpy as np
@@ -22,6 +20,7 @@ from colloc.nlp.layout import Layout
 from colloc.nlp.objective import DisturbancePrior, NodeTerm, ObjectiveTerm, Tracking
 from colloc.nlp.placement import GridData, assemble
 from colloc.nlp.solution import Solution
+from colloc.nlp.solving import checked_guess, solve_watched
 from colloc.nlp.spec import (
     Bounds,
     check_bounds,
@@ -37,9 +36,7 @@ from colloc.nlp.spec import (
 )
 from colloc.nlp.templates import Partition
 from colloc.solve.gauss_newton import ChainStructure, GaussNewtonOptions, solve_gauss_newton
-from colloc.solve.ipopt import STALL_SECONDS, solve_nlp
-from colloc.solve.result import SolveResult
-from colloc.solve.watchdog import SolverCrashed, SolverStalled
+from colloc.solve.ipopt import STALL_SECONDS
 from colloc.transcription.base import Scheme, TimeGrid
 from colloc.transcription.interpolation import Interpolation
 from colloc.transcription.midpoint import Midpoint
@@ -582,70 +579,28 @@ class Problem:
         """
         z0 = self._checked_guess(initial_guess)
         magnitudes = self.variable_scale(scale)
-        lo, hi = self.variable_bounds()
-        outside = np.flatnonzero((z0 < lo) | (z0 > hi))
-        if outside.size:
-            i = int(outside[0])
-            warnings.warn(
-                f"initial_guess: {outside.size} value(s) outside the bounds, first "
-                f"{self.layout.describe_variable(i)} = {z0[i]:.6g} not in [{lo[i]:.6g}, "
-                f"{hi[i]:.6g}]; IPOPT moves them inside before its first iteration",
-                UserWarning,
-                stacklevel=2,
-            )
-
-        def run(approximation: str) -> SolveResult:
-            return solve_nlp(
-                self.nlp,
-                z0,
-                lo,
-                hi,
-                hessian=approximation,
-                progress=progress,
-                log_path=log_path,
-                options=ipopt_options,
-                variable_scale=None if scale is None else magnitudes,
-                stall_seconds=stall_seconds,
-            )
-
-        try:
-            result = run(hessian)
-        except SolverCrashed as crashed:
-            if self.cache_hit:
-                crashed.add_note(
-                    "this problem's functions were loaded from the build cache: if an entry is "
-                    "at fault, clear it (`colloc cache clear`, or BuildCache().clear()) or build "
-                    "with cache=False, and report the crash"
-                )
-            raise
-        except SolverStalled as stalled:
-            if hessian == "limited-memory":
-                raise
-            result = run("limited-memory")
-            note = (
-                f"the {hessian}-Hessian solve was stopped by the watchdog after "
-                f"{stalled.iterations} iterations (no iteration for {stalled.seconds:.0f} s); "
-                "this is the limited-memory solve from the same initial guess"
-            )
-            result.status = replace(result.status, notes=result.status.notes + (note,))
+        result = solve_watched(
+            self.nlp,
+            z0,
+            self.variable_bounds(),
+            hessian=hessian,
+            describe=self.layout.describe_variable,
+            cache_hit=self.cache_hit,
+            progress=progress,
+            log_path=log_path,
+            variable_scale=None if scale is None else magnitudes,
+            stall_seconds=stall_seconds,
+            options=ipopt_options,
+        )
         solution = Solution.from_result(self, result)
         # what determined the solve's path, beside IPOPT's options
         solution.stats["scale"] = {name_of(k): float(v) for k, v in (scale or {}).items()}
         return solution
 
     def _checked_guess(self, initial_guess: np.ndarray) -> np.ndarray:
-        z0 = np.asarray(initial_guess, dtype=float)
-        if z0.shape != (self.layout.num_variables,):
-            raise ValueError(
-                f"initial_guess: expected shape ({self.layout.num_variables},), found {z0.shape}"
-            )
-        if not np.all(np.isfinite(z0)):
-            bad = int(np.flatnonzero(~np.isfinite(z0))[0])
-            raise ValueError(
-                f"initial_guess: expected finite values, found {z0[bad]} at index {bad} "
-                f"({self.layout.describe_variable(bad)})"
-            )
-        return z0
+        return checked_guess(
+            initial_guess, self.layout.num_variables, self.layout.describe_variable
+        )
 
     def chain_structure(self) -> ChainStructure:
         """Where states, unknown parameters and defects sit, for :meth:`solve_gauss_newton`.
