@@ -27,6 +27,8 @@ _EXPORTS = {
     "Solution": "colloc.nlp",
     "TerminalCost": "colloc.nlp",
     "Tracking": "colloc.nlp",
+    "Trials": "colloc.nlp",
+    "TrialsSolution": "colloc.nlp",
     "ResidualDiagnostics": "colloc.nlp.residuals",
     "residual_diagnostics": "colloc.nlp.residuals",
     "DiscretisationError": "colloc.nlp.refinement",
@@ -58,6 +60,8 @@ if TYPE_CHECKING:  # for type checkers; re-exported through __all__
         Solution,
         TerminalCost,
         Tracking,
+        Trials,
+        TrialsSolution,
     )
     from colloc.nlp.refinement import (
         DiscretisationError,

@@ -5,6 +5,7 @@ from colloc.nlp.layout import Layout
 from colloc.nlp.objective import IntegralCost, TerminalCost, Tracking
 from colloc.nlp.problem import Problem
 from colloc.nlp.solution import Solution
+from colloc.nlp.trials import Trials, TrialsSolution
 
 __all__ = [
     "IntegralCost",
@@ -14,4 +15,6 @@ __all__ = [
     "Solution",
     "TerminalCost",
     "Tracking",
+    "Trials",
+    "TrialsSolution",
 ]

@@ -36,6 +36,7 @@ from colloc.transcription.interpolation import CubicInterpolation
 if TYPE_CHECKING:
     from colloc.nlp.problem import Problem
     from colloc.nlp.solution import Solution
+    from colloc.nlp.trials import Trials, TrialsSolution
 
 
 @dataclass(frozen=True)
@@ -211,8 +212,8 @@ def refined_guess(problem: Problem, solution: Solution, refined: Problem) -> np.
 
 
 def discretisation_error(
-    problem: Problem,
-    solution: Solution,
+    problem: Problem | Trials,
+    solution: Solution | TrialsSolution,
     scale: Mapping[sm.Basic, Any] | None = None,
     **ipopt_options: Any,
 ) -> DiscretisationError:
@@ -225,8 +226,10 @@ def discretisation_error(
 
     Parameters
     ----------
-    problem : Problem
-    solution : Solution
+    problem : Problem or Trials
+        Several trials are refined together (every trial's grid twice as fine) and solved
+        again as one.
+    solution : Solution or TrialsSolution
         A converged solve of ``problem``.
     scale : mapping, optional
         As :meth:`Problem.solve`; default the one ``solution`` records.
@@ -239,15 +242,22 @@ def discretisation_error(
         NaN errors, with the reason in ``note``, when the problem cannot be refined
         (process noise) or the refined solve does not converge (or is stopped).
     """
-    unknown = problem.partition.unknown_parameters
-    order = int(problem.scheme.order)
+    from colloc.nlp.trials import Trials  # trials build on this module's problems
+
+    design = problem if isinstance(problem, Trials) else Trials([problem])
+    own = getattr(solution, "trials", (solution,))  # each trial's solution
+    unknown = design.unknown_parameters
+    orders = sorted({int(p.scheme.order) for p in design.problems})
+    order = orders[0]
 
     def not_estimated(why: str) -> DiscretisationError:
         nan = dict.fromkeys(unknown, float("nan"))
         return DiscretisationError(nan, dict(nan), order, f"not estimated: {why}")
 
+    if len(orders) > 1:
+        return not_estimated(f"the trials' schemes are of different orders {orders}")
     try:
-        fine = refined_problem(problem)
+        fine = Trials([refined_problem(p) for p in design.problems], design.names)
     except ValueError as exc:
         return not_estimated(str(exc))
     options = dict(solution.stats.get("ipopt_options") or {})
@@ -259,11 +269,14 @@ def discretisation_error(
     )
     options.update(ipopt_options)
     if scale is None:
-        by_name = {name_of(s): s for s in _free_quantities(problem)}
+        by_name = {name_of(s): s for p in design.problems for s in _free_quantities(p)}
         recorded = solution.stats.get("scale") or {}
         scale = {by_name[k]: v for k, v in recorded.items() if k in by_name}
+    guesses = [
+        refined_guess(p, s, f) for p, s, f in zip(design.problems, own, fine.problems, strict=True)
+    ]
     # a cubic between nodes may overshoot a bound the solution touches: start inside them
-    guess = np.clip(refined_guess(problem, solution, fine), *fine.variable_bounds())
+    guess = np.clip(fine.initial_guess(guesses), *fine.variable_bounds())
     try:
         answer = fine.solve(guess, hessian, scale=scale or None, **options)
     except (SolverStalled, SolverCrashed) as exc:
@@ -277,7 +290,7 @@ def discretisation_error(
         {p: float(answer.parameters[p]) for p in unknown},
         order,
         f"Richardson, order {order}: the change on a grid twice as fine "
-        f"({fine.grid.num_nodes} nodes, {answer.stats['iterations']} iterations) "
+        f"({fine.num_nodes} nodes, {answer.stats['iterations']} iterations) "
         f"times {factor:.4g}",
     )
 

@@ -31,6 +31,7 @@ import sympy as sm
 
 from colloc.model.symbols import name_of
 from colloc.nlp.residuals import SignalResiduals, signal_columns, tracking_residuals
+from colloc.nlp.trials import Trials, TrialsSolution
 
 if TYPE_CHECKING:
     from colloc.nlp.problem import Problem
@@ -112,11 +113,11 @@ DISCRETISATION_RTOL = 1e-6
 
 
 def parameter_uncertainty(
-    problem: Problem,
-    solution: Solution,
+    problem: Problem | Trials,
+    solution: Solution | TrialsSolution,
     num_measurements: int | None = None,
     method: str = "auto",
-    blocks: int | Sequence[int] | None = None,
+    blocks: int | Sequence[int] | Sequence[Sequence[int]] | None = None,
     per_output: bool = False,
     discretisation: bool = True,
 ) -> ParameterUncertainty:
@@ -134,11 +135,16 @@ def parameter_uncertainty(
     or the residuals are correlated within a block (process noise left out, coloured
     noise); it needs many blocks longer than the residuals' correlation time.
 
+    Several trials sharing the parameters (:class:`colloc.Trials`) are one estimate: their
+    residuals are independent between trials, so the sandwich's blocks never straddle two
+    trials, and ``sigma^2`` is pooled over all of them.
+
     Parameters
     ----------
-    problem : Problem
-        The problem that was solved (its objective must be a tracking least squares).
-    solution : Solution
+    problem : Problem or Trials
+        What was solved (its objective must be a tracking least squares).
+    solution : Solution or TrialsSolution
+        Its solve.
     num_measurements : int, optional
         Number of measured samples in the objective; by default counted from the problem's
         least-squares terms (samples with a positive weight, including the process-noise
@@ -150,9 +156,12 @@ def parameter_uncertainty(
         fewer than :data:`AUTO_SANDWICH_MIN_NODES` nodes; the sandwich otherwise. On the
         gallery's problems the KKT errors of a fit without a noise model were 3-12 times too
         small (20-57 % of the parameters within 3 SE).
-    blocks : int or sequence of int, optional
+    blocks : int or sequence, optional
         Sandwich only: the number of equal time blocks, or the first node of each block
-        (e.g. each stride's heel strike). Default ``round(sqrt(N))`` blocks.
+        (e.g. each stride's heel strike). Default ``round(sqrt(N))`` blocks. With
+        :class:`colloc.Trials`: the blocks of each trial (default ``round(sqrt(N_i))``,
+        at least 2, in trial ``i`` of ``N_i`` nodes), a number for every trial, or one
+        sequence of first nodes per trial (a trial may be one block, ``[0]``).
     per_output : bool
         KKT only. False (default): one noise variance per unit weight, pooled over every
         tracked signal, so the weights must be ``1 / sigma_j^2`` up to one common factor
@@ -194,18 +203,48 @@ def parameter_uncertainty(
         :data:`DISCRETISATION_RTOL` of its value): refine the grid or take a higher-order
         scheme before reading the error bar.
     """
-    result = _uncertainty(problem, solution, num_measurements, method, blocks, per_output)
+    design = _as_trials(problem, solution)
+    result = _uncertainty(design, solution, num_measurements, method, blocks, per_output)
     if not discretisation:
         return result
     return _with_discretisation(problem, solution, result)
 
 
+def _as_trials(
+    problem: Problem | Trials, solution: Solution | TrialsSolution | None = None
+) -> Trials:
+    """The design as trials (a single problem is one trial), checked against ``solution``."""
+    if not isinstance(problem, Trials) and not problem.partition.unknown_parameters:
+        raise ValueError("problem: has no unknown parameters, so there is nothing to estimate")
+    design = problem if isinstance(problem, Trials) else Trials([problem])
+    if solution is not None:
+        z = np.asarray(solution.z)
+        if z.shape != (design.num_variables,):
+            raise ValueError(
+                f"solution: its free vector has shape {z.shape}, the problem's "
+                f"({design.num_variables},): not a solve of this problem"
+            )
+    return design
+
+
+def _trial_residuals(design: Trials, z: np.ndarray) -> tuple[list[SignalResiduals], list[int]]:
+    """Every trial's least-squares signals at the whole ``z`` (trial by trial), and the
+    trial each belongs to."""
+    signals: list[SignalResiduals] = []
+    owners: list[int] = []
+    for k, (p, zk) in enumerate(zip(design.problems, design.split(z), strict=True)):
+        mine = tracking_residuals(p, zk)
+        signals += mine
+        owners += [k] * len(mine)
+    return signals, owners
+
+
 def _uncertainty(
-    problem: Problem,
-    solution: Solution,
+    design: Trials,
+    solution: Solution | TrialsSolution,
     num_measurements: int | None,
     method: str,
-    blocks: int | Sequence[int] | None,
+    blocks: int | Sequence[int] | Sequence[Sequence[int]] | None,
     per_output: bool,
 ) -> ParameterUncertainty:
     """:func:`parameter_uncertainty` without the discretisation error."""
@@ -219,19 +258,17 @@ def _uncertainty(
     if method not in METHODS:
         raise ValueError(f"method: expected one of {list(METHODS)}, found {method!r}")
     reason = "asked for"
-    priors = bool(problem.process_noise or problem.measured_inputs)
+    priors = any(p.process_noise or p.measured_inputs for p in design.problems)
     needed = method != "kkt" or priors or per_output
-    residuals = tracking_residuals(problem, solution.z) if needed else None
+    residuals, owners = _trial_residuals(design, solution.z) if needed else (None, [])
     if method == "auto":
         assert residuals is not None
-        method, reason = _choose_method(problem, residuals, per_output)
-    nlp, lay = problem.nlp, problem.layout
-    q = len(lay.parameter_names)
-    if q == 0:
-        raise ValueError("problem: has no unknown parameters, so there is nothing to estimate")
-    starts = _block_starts(blocks, lay.num_nodes) if method == "sandwich" else None
+        method, reason = _choose_method(design, residuals, owners, per_output)
+    nlp = design.nlp
+    q = len(design.unknown_parameters)
+    starts = _trial_block_starts(blocks, design) if method == "sandwich" else None
     if num_measurements is None:
-        num_measurements = count_measurements(problem)
+        num_measurements = count_measurements(design)
     n, m = nlp.n, nlp.m
     dof: float = num_measurements - (n - m)
     if dof <= 0:
@@ -239,39 +276,39 @@ def _uncertainty(
             f"num_measurements: expected more than the {n - m} free quantities, "
             f"found {num_measurements}"
         )
-    hessian = problem.nlp.hessian(solution.z, solution.multipliers, 1.0)
-    kkt = _ReducedKKT(problem, solution.z, hessian)
+    hessian = nlp.hessian(solution.z, solution.multipliers, 1.0)
+    kkt = _ReducedKKT(design, solution.z, hessian)
     sigma2 = float(solution.stats["objective"]) / dof
     effective = None
     # each least-squares signal's residual gradients, for the priors' and per-output shares
-    slopes = _signal_slopes(problem, solution.z) if priors or per_output else []
+    slopes = _signal_slopes(design, solution.z) if priors or per_output else []
     if priors:
         # the disturbances' (and measured inputs') priors shrink them: they use up fewer
         # degrees of freedom than they count, so the noise is read from the tracked
         # residuals over their effective degrees of freedom
         assert residuals is not None
-        sigma2, effective, dof = _effective_variance(
-            problem, solution.z, hessian, residuals, slopes
-        )
+        sigma2, effective, dof = _effective_variance(design, solution.z, hessian, residuals, slopes)
     if starts is None and per_output:
         assert residuals is not None
-        cov = _per_output_covariance(problem, kkt, dof / num_measurements, residuals, slopes)
+        cov = _per_output_covariance(design, kkt, dof / num_measurements, residuals, slopes)
         return _mark_bounds(
             solution,
-            _result(problem, cov, sigma2, dof, "kkt per output", None, reason, effective),
+            _result(design, cov, sigma2, dof, "kkt per output", None, reason, effective),
         )
     if starts is None:
         cov = 2.0 * sigma2 * kkt.parameter_block()
         return _mark_bounds(
-            solution, _result(problem, cov, sigma2, dof, "kkt", None, reason, effective)
+            solution, _result(design, cov, sigma2, dof, "kkt", None, reason, effective)
         )
     if per_output:
         raise ValueError("per_output: only for method='kkt' (the sandwich needs no variances)")
-    G = _block_gradients(problem, solution.z, starts)
+    G = _block_gradients(design, solution.z, starts)
     assert residuals is not None  # computed above for the sandwich
     cov = np.zeros((q, q))
+    first = np.concatenate([[0], np.cumsum([s.size for s in starts])])
+    nb = int(first[-1])
     # (no slopes without priors: then nothing below is a prior's)
-    for prior, (rows, slope) in zip(residuals, slopes, strict=False):
+    for prior, owner, (rows, slope) in zip(residuals, owners, slopes, strict=False):
         if prior.kind == "tracking":
             continue
         # a disturbance (or a group's whitened combination) or a measured input's
@@ -281,37 +318,38 @@ def _uncertainty(
         used = prior.weights > 0
         r = np.where(used, prior.residuals, 0.0)
         nodes = np.arange(r.size)
-        in_block = sp.coo_matrix(
-            (np.ones(r.size), (nodes, np.searchsorted(starts, nodes, side="right") - 1)),
-            shape=(r.size, starts.size),
-        )
+        block = first[owner] + np.searchsorted(starts[owner], nodes, side="right") - 1
+        in_block = sp.coo_matrix((np.ones(r.size), (nodes, block)), shape=(r.size, nb))
         G = G - (_per_sample(rows, slope * r[:, None], n) @ in_block).tocsc()
         root = np.where(used, np.sqrt(sigma2 / np.where(used, prior.weights, 1.0)), 0.0)
         Y = kkt.parameter_rows(_per_sample(rows, slope * root[:, None], n))
         cov += Y @ Y.T
     U = kkt.parameter_rows(G)
-    nb = starts.size
     cov += nb / (nb - 1) * (U @ U.T)
     return _mark_bounds(
         solution,
-        _result(problem, 0.5 * (cov + cov.T), sigma2, dof, "sandwich", nb, reason, effective),
+        _result(design, 0.5 * (cov + cov.T), sigma2, dof, "sandwich", nb, reason, effective),
     )
 
 
 def _choose_method(
-    problem: Problem, residuals: Sequence[SignalResiduals], per_output: bool
+    design: Trials, residuals: Sequence[SignalResiduals], owners: Sequence[int], per_output: bool
 ) -> tuple[str, str]:
     """``method="auto"``: the method, and why, from the residuals at the solution."""
     if per_output:
         return "kkt", "per_output=True is a form of the KKT covariance"
     modelled = sorted({r.kind for r in residuals if r.kind != "tracking"})
-    N = problem.layout.num_nodes
+    N = design.num_nodes
     if modelled:
-        worst, limit = 0.0, 3.0 / np.sqrt(N)
-        for signal in residuals:
+        # the worst signal against its own trial's limit 3 / sqrt(N_i)
+        worst, limit = 0.0, 3.0 / np.sqrt(design.problems[0].layout.num_nodes)
+        for signal, owner in zip(residuals, owners, strict=True):
             r = signal.residuals[signal.weights > 0]
             if signal.kind == "tracking" and r.size > 2 and np.std(r) > 0:
-                worst = max(worst, abs(float(np.corrcoef(r[1:], r[:-1])[0, 1])))
+                value = abs(float(np.corrcoef(r[1:], r[:-1])[0, 1]))
+                own = 3.0 / np.sqrt(design.problems[owner].layout.num_nodes)
+                if value / own > worst / limit:
+                    worst, limit = value, own
         if worst <= limit:
             return "kkt", (
                 f"the noise is modelled ({', '.join(modelled)}) and the tracked residuals are "
@@ -339,7 +377,7 @@ PRIOR_UNIT_RANGE = (1e-2, 1e2)
 
 
 def _per_output_covariance(
-    problem: Problem,
+    design: Trials,
     kkt: _ReducedKKT,
     dof_share: float,
     signals: Sequence[SignalResiduals],
@@ -347,7 +385,7 @@ def _per_output_covariance(
 ) -> np.ndarray:
     """``[K^-1]_p,: (sum_i 4 w_i^2 v_i g_i g_i^T) [K^-1]_:,p`` with each tracked signal's
     variance per unit weight from its own residuals (priors: their given variance)."""
-    q = len(problem.partition.unknown_parameters)
+    q = len(design.unknown_parameters)
     cov = np.zeros((q, q))
     has_priors = any(signal.kind != "tracking" for signal in signals)
     mismatched: list[str] = []
@@ -362,7 +400,7 @@ def _per_output_covariance(
                 mismatched.append(f"{signal.name} ({variance:.3g})")
         # sample k's residual has variance v_k = variance / w_k
         root = np.where(used, np.sqrt(variance / np.where(used, w, 1.0)), 0.0)
-        U = kkt.parameter_rows(_per_sample(rows, slope * root[:, None], problem.nlp.n))
+        U = kkt.parameter_rows(_per_sample(rows, slope * root[:, None], design.nlp.n))
         cov += U @ U.T
     if mismatched:
         # the fit itself weighed the priors against data in other units: no covariance of
@@ -378,26 +416,54 @@ def _per_output_covariance(
     return 0.5 * (cov + cov.T)
 
 
-def count_measurements(problem: Problem) -> int:
+def count_measurements(problem: Problem | Trials) -> int:
     """Samples with a positive weight in the problem's least-squares terms.
 
     Parameters
     ----------
-    problem : Problem
+    problem : Problem or Trials
+        Of several trials, all their samples.
 
     Returns
     -------
     int
     """
     total = 0
-    for term in problem.node_terms:
-        m = len(term.signals)
-        if m:
-            total += int(np.count_nonzero(term.data[:, m : 2 * m] > 0))
+    for part in problem.problems if isinstance(problem, Trials) else (problem,):
+        for term in part.node_terms:
+            m = len(term.signals)
+            if m:
+                total += int(np.count_nonzero(term.data[:, m : 2 * m] > 0))
     return total
 
 
-def _block_starts(blocks: int | Sequence[int] | None, N: int) -> np.ndarray:
+def _trial_block_starts(
+    blocks: int | Sequence[int] | Sequence[Sequence[int]] | None, design: Trials
+) -> list[np.ndarray]:
+    """The first node of every sandwich block, per trial (module description of ``blocks``)."""
+    sizes = [p.layout.num_nodes for p in design.problems]
+    if len(sizes) == 1:
+        return [_block_starts(blocks, sizes[0])]  # type: ignore[arg-type]
+    if blocks is None or isinstance(blocks, int | np.integer):
+        return [_block_starts(blocks, N) for N in sizes]  # type: ignore[arg-type]
+    if isinstance(blocks, str) or not isinstance(blocks, Sequence) or len(blocks) != len(sizes):
+        raise ValueError(
+            f"blocks: with {len(sizes)} trials, expected a number of blocks per trial or one "
+            f"sequence of first nodes per trial, found {blocks!r}"
+        )
+    out = []
+    for k, (own, N) in enumerate(zip(blocks, sizes, strict=True)):
+        if not isinstance(own, Sequence | np.ndarray) or isinstance(own, str):
+            raise ValueError(
+                f"blocks[{k}]: expected the first nodes of trial {k}'s blocks, found {own!r}"
+            )
+        out.append(_block_starts(list(own), N, least=1, name=f"blocks[{k}]"))
+    return out
+
+
+def _block_starts(
+    blocks: int | Sequence[int] | None, N: int, least: int = 2, name: str = "blocks"
+) -> np.ndarray:
     if blocks is None:
         count = max(2, int(round(np.sqrt(N))))
         return np.unique(np.linspace(0, N, count, endpoint=False).astype(np.int64))
@@ -409,31 +475,35 @@ def _block_starts(blocks: int | Sequence[int] | None, N: int) -> np.ndarray:
         starts = np.asarray(blocks, dtype=np.int64)
     except (TypeError, ValueError) as exc:
         raise ValueError(
-            f"blocks: expected a number of blocks or the first node of each, found {blocks!r}"
+            f"{name}: expected a number of blocks or the first node of each, found {blocks!r}"
         ) from exc
-    if starts.ndim != 1 or starts.size < 2 or (starts[0] != 0) or np.any(np.diff(starts) <= 0):
+    if starts.ndim != 1 or starts.size < least or (starts[0] != 0) or np.any(np.diff(starts) <= 0):
         raise ValueError(
-            f"blocks: expected at least 2 increasing first nodes starting at 0, found {blocks!r}"
+            f"{name}: expected at least {least} increasing first nodes starting at 0, "
+            f"found {blocks!r}"
         )
     if starts[-1] >= N:
-        raise ValueError(f"blocks: first node {int(starts[-1])} is beyond the {N} nodes")
+        raise ValueError(f"{name}: first node {int(starts[-1])} is beyond the {N} nodes")
     return starts
 
 
-def _signal_slopes(problem: Problem, z: np.ndarray) -> list[tuple[np.ndarray, np.ndarray]]:
-    """Per least-squares signal (in :func:`tracking_residuals`' order): the free-vector
-    index of each entry and, per node, ``2 w_k grad r_k`` at those entries ((count, width)),
-    with the signal's own weights and its term's quadrature factors."""
-    p = problem.nlp.objective_placement
-    assert p is not None  # parameter_uncertainty needs a tracking objective
-    local = p.gather(z)
+def _signal_slopes(design: Trials, z: np.ndarray) -> list[tuple[np.ndarray, np.ndarray]]:
+    """Per least-squares signal (in :func:`_trial_residuals`' order): the whole free
+    vector's index of each entry and, per node, ``2 w_k grad r_k`` at those entries
+    ((count, width)), with the signal's own weights and its term's quadrature factors."""
     out = []
-    for cols in signal_columns(problem):
-        # d/dz [w (y - d)^2 - w (y - d - 1)^2] = 2 w grad y
-        data = cols.alone(p.data)
-        g0 = p.mapped.jacobian(local, data)
-        data[:, cols.measurement] += 1.0
-        out.append((p.jac_cols, (g0 - p.mapped.jacobian(local, data)).reshape(p.count, -1)))
+    for problem, zk, index in zip(design.problems, design.split(z), design.index, strict=True):
+        p = problem.nlp.objective_placement
+        if p is None:
+            continue  # a trial without least squares has no signals
+        local = p.gather(zk)
+        for cols in signal_columns(problem):
+            # d/dz [w (y - d)^2 - w (y - d - 1)^2] = 2 w grad y
+            data = cols.alone(p.data)
+            g0 = p.mapped.jacobian(local, data)
+            data[:, cols.measurement] += 1.0
+            slope = (g0 - p.mapped.jacobian(local, data)).reshape(p.count, -1)
+            out.append((index[p.jac_cols], slope))
     return out
 
 
@@ -445,20 +515,32 @@ def _per_sample(rows: np.ndarray, values: np.ndarray, n: int) -> sp.csc_matrix:
     return sp.coo_matrix((values.ravel(), (rows, items)), shape=(n, count)).tocsc()
 
 
-def _block_gradients(problem: Problem, z: np.ndarray, starts: np.ndarray) -> sp.csc_matrix:
-    """``(n, nb)``: column ``b`` is the objective gradient of the nodes of block ``b``."""
-    p = problem.nlp.objective_placement
-    assert p is not None  # parameter_uncertainty needs a tracking objective
-    vals = p.mapped.jacobian(p.gather(z), p.data).reshape(p.count, -1)
-    items = np.repeat(np.arange(p.count), vals.shape[1])
-    block = np.searchsorted(starts, items, side="right") - 1
+def _block_gradients(design: Trials, z: np.ndarray, starts: list[np.ndarray]) -> sp.csc_matrix:
+    """``(n, nb)``: column ``b`` is the objective gradient of the nodes of block ``b``, the
+    blocks of each trial (``starts``) one trial after another."""
+    values, rows, columns = [], [], []
+    first = 0
+    for problem, zk, index, own in zip(
+        design.problems, design.split(z), design.index, starts, strict=True
+    ):
+        p = problem.nlp.objective_placement
+        if p is not None:
+            vals = p.mapped.jacobian(p.gather(zk), p.data).reshape(p.count, -1)
+            items = np.repeat(np.arange(p.count), vals.shape[1])
+            values.append(vals.ravel())
+            rows.append(index[p.jac_cols])
+            columns.append(first + np.searchsorted(own, items, side="right") - 1)
+        first += own.size
+    if not values:
+        raise ValueError("problem: has no least-squares objective to take residuals from")
     return sp.coo_matrix(
-        (vals.ravel(), (p.jac_cols, block)), shape=(problem.nlp.n, starts.size)
+        (np.concatenate(values), (np.concatenate(rows), np.concatenate(columns))),
+        shape=(design.nlp.n, first),
     ).tocsc()
 
 
 def cramer_rao_bound(
-    problem: Problem, z: np.ndarray, noise_variance: float = 1.0
+    problem: Problem | Trials, z: np.ndarray, noise_variance: float = 1.0
 ) -> ParameterUncertainty:
     """The Cramer-Rao bound of the unknown parameters for data measured around ``z``.
 
@@ -474,8 +556,9 @@ def cramer_rao_bound(
 
     Parameters
     ----------
-    problem : Problem
-        A problem whose objective is a tracking least squares.
+    problem : Problem or Trials
+        A problem whose objective is a tracking least squares, or several trials sharing
+        the parameters (the bound of the whole design).
     z : ndarray
         The point, usually the truth of a synthetic study (``problem.initial_guess`` of the
         true trajectories and parameters).
@@ -495,17 +578,18 @@ def cramer_rao_bound(
         is not a positive number, or the information matrix is singular (parameters the
         tracked outputs cannot identify at all).
     """
-    nlp = problem.nlp
-    if len(problem.layout.parameter_names) == 0:
+    if not isinstance(problem, Trials) and not problem.partition.unknown_parameters:
         raise ValueError("problem: has no unknown parameters, so there is nothing to bound")
+    design = _as_trials(problem)
+    nlp = design.nlp
     z = np.asarray(z, dtype=float)
     if z.shape != (nlp.n,):
         raise ValueError(f"z: expected shape ({nlp.n},), found {z.shape}")
     if not (np.isfinite(noise_variance) and noise_variance > 0):
         raise ValueError(f"noise_variance: expected a number > 0, found {noise_variance!r}")
-    block = _ReducedKKT(problem, z, nlp.gauss_newton_hessian(z)).parameter_block()
+    block = _ReducedKKT(design, z, nlp.gauss_newton_hessian(z)).parameter_block()
     return _result(
-        problem, 2.0 * float(noise_variance) * block, float(noise_variance), None, "cramer-rao"
+        design, 2.0 * float(noise_variance) * block, float(noise_variance), None, "cramer-rao"
     )
 
 
@@ -519,10 +603,10 @@ class _ReducedKKT:
     ``S = H_pp - B^T K_s^-1 B``.
     """
 
-    def __init__(self, problem: Problem, z: np.ndarray, hessian: np.ndarray) -> None:
-        nlp, lay = problem.nlp, problem.layout
+    def __init__(self, design: Trials, z: np.ndarray, hessian: np.ndarray) -> None:
+        nlp = design.nlp
         n, m = nlp.n, nlp.m
-        p0 = lay.parameter_offset
+        p0 = design.parameter_offset
         hr, hc = nlp.hessianstructure()
         H = sp.coo_matrix((hessian, (hr, hc)), shape=(n, n)).tocsc()
         H = (H + sp.triu(H.T, k=1)).tocsc()
@@ -571,7 +655,7 @@ class _ReducedKKT:
 
 
 def _with_discretisation(
-    problem: Problem, solution: Solution, result: ParameterUncertainty
+    problem: Problem | Trials, solution: Solution | TrialsSolution, result: ParameterUncertainty
 ) -> ParameterUncertainty:
     """``result`` with each parameter's discretisation error; a warning naming those whose
     error is not small beside their standard error."""
@@ -592,7 +676,7 @@ def _with_discretisation(
         warnings.warn(
             f"discretisation error above half the standard error: {', '.join(large)}; the "
             f"error bar does not count it: refine the grid or use a higher-order scheme "
-            f"({problem.scheme.name}, order {estimate.order})",
+            f"({_as_trials(problem).problems[0].scheme.name}, order {estimate.order})",
             DiscretisationWarning,
             stacklevel=3,
         )
@@ -601,7 +685,9 @@ def _with_discretisation(
     )
 
 
-def _mark_bounds(solution: Solution, result: ParameterUncertainty) -> ParameterUncertainty:
+def _mark_bounds(
+    solution: Solution | TrialsSolution, result: ParameterUncertainty
+) -> ParameterUncertainty:
     """NaN for the standard errors (and covariance rows) of the parameters a bound holds."""
     held = set(solution.status.at_bounds)
     index = [i for i, p in enumerate(result.parameters) if name_of(p) in held]
@@ -627,7 +713,7 @@ def _mark_bounds(solution: Solution, result: ParameterUncertainty) -> ParameterU
 
 
 def _result(
-    problem: Problem,
+    design: Trials,
     cov: np.ndarray,
     sigma2: float,
     dof: float | None,
@@ -637,7 +723,7 @@ def _result(
     effective: float | None = None,
 ) -> ParameterUncertainty:
     se = np.sqrt(np.clip(np.diag(cov), 0.0, None))
-    params = problem.partition.unknown_parameters
+    params = design.unknown_parameters
     return ParameterUncertainty(
         params,
         dict(zip(params, map(float, se), strict=True)),
@@ -652,7 +738,7 @@ def _result(
 
 
 def _effective_variance(
-    problem: Problem,
+    design: Trials,
     z: np.ndarray,
     hessian: np.ndarray,
     residuals: Sequence[SignalResiduals],
@@ -669,7 +755,7 @@ def _effective_variance(
     tracked = [r for r in residuals if r.kind == "tracking"]
     rss = float(sum(np.nansum(r.weights * np.nan_to_num(r.residuals) ** 2) for r in tracked))
     samples = sum(int(np.count_nonzero(r.weights > 0)) for r in tracked)
-    trace = _influence_trace(problem, z, hessian, residuals, slopes, INFLUENCE_PROBES, 0)
+    trace = _influence_trace(design, z, hessian, residuals, slopes, INFLUENCE_PROBES, 0)
     dof = samples - trace
     if not dof > 0:
         raise ValueError(
@@ -685,7 +771,7 @@ INFLUENCE_PROBES = 64
 
 
 def influence_trace(
-    problem: Problem,
+    problem: Problem | Trials,
     z: np.ndarray,
     hessian: np.ndarray | None = None,
     probes: int = INFLUENCE_PROBES,
@@ -704,7 +790,7 @@ def influence_trace(
 
     Parameters
     ----------
-    problem : Problem
+    problem : Problem or Trials
     z : ndarray
         A solution's free vector.
     hessian : ndarray, optional
@@ -718,14 +804,15 @@ def influence_trace(
     -------
     float
     """
-    values = problem.nlp.gauss_newton_hessian(z) if hessian is None else hessian
-    residuals = tracking_residuals(problem, z)
-    slopes = _signal_slopes(problem, z)
-    return _influence_trace(problem, z, values, residuals, slopes, probes, seed)
+    design = _as_trials(problem)
+    values = design.nlp.gauss_newton_hessian(z) if hessian is None else hessian
+    residuals, _ = _trial_residuals(design, z)
+    slopes = _signal_slopes(design, z)
+    return _influence_trace(design, z, values, residuals, slopes, probes, seed)
 
 
 def _influence_trace(
-    problem: Problem,
+    design: Trials,
     z: np.ndarray,
     values: np.ndarray,
     residuals: Sequence[SignalResiduals],
@@ -735,7 +822,7 @@ def _influence_trace(
 ) -> float:
     """:func:`influence_trace` from the Hessian's values and the signals' residuals and
     residual gradients (:func:`_signal_slopes`)."""
-    nlp = problem.nlp
+    nlp = design.nlp
     n, m = nlp.n, nlp.m
     hr, hc = nlp.hessianstructure()
     H = sp.coo_matrix((values, (hr, hc)), shape=(n, n)).tocsc()
