@@ -446,7 +446,13 @@ def _trial_block_starts(
         return [_block_starts(blocks, sizes[0])]  # type: ignore[arg-type]
     if blocks is None or isinstance(blocks, int | np.integer):
         return [_block_starts(blocks, N) for N in sizes]  # type: ignore[arg-type]
-    if isinstance(blocks, str) or not isinstance(blocks, Sequence) or len(blocks) != len(sizes):
+    flat = isinstance(blocks, Sequence) and any(isinstance(b, int | np.integer) for b in blocks)
+    if (
+        flat
+        or isinstance(blocks, str)
+        or not isinstance(blocks, Sequence)
+        or len(blocks) != len(sizes)
+    ):
         raise ValueError(
             f"blocks: with {len(sizes)} trials, expected a number of blocks per trial or one "
             f"sequence of first nodes per trial, found {blocks!r}"
