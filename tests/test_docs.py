@@ -148,6 +148,23 @@ def test_the_own_model_example_recovers_its_parameters(tmp_path):
     assert (tmp_path / "own-model.png").stat().st_size > 10_000
 
 
+def test_the_trials_example_recovers_shared_and_own_parameters():
+    sys.path.insert(0, str(DOCS / "examples"))
+    try:
+        import trials
+    finally:
+        sys.path.pop(0)
+    table = trials.main()
+    assert set(table) == {"c", "k", "b0", "b1", "b2", "b3"}
+    for name, (true, estimate, error) in table.items():
+        assert abs(estimate - true) < 3 * error, name
+        assert 0 < error < 0.01 * max(abs(true), 1.0), name
+    # the page shows what the example prints
+    page = (DOCS / "own-model.md").read_text()
+    for name, (_, estimate, error) in table.items():
+        assert f"{name:>3} = {estimate:9.5f} +/- {error:.5f}" in page, name
+
+
 def test_the_unknown_input_example_recovers_the_parameters_and_the_force(tmp_path):
     sys.path.insert(0, str(DOCS / "examples"))
     try:
