@@ -106,7 +106,9 @@ def solve_trials(data, objectives=None):
         for i, (ts, f, d, _) in enumerate(data)
     ]
     trials = Trials(problems)
-    z0 = trials.initial_guess([guess(p, d, ts) for p, (ts, _, d, _) in zip(problems, data)])
+    z0 = trials.initial_guess(
+        [guess(p, d, ts) for p, (ts, _, d, _) in zip(problems, data, strict=True)]
+    )
     return trials, trials.solve(z0, **QUIET)
 
 
@@ -117,11 +119,11 @@ def test_trials_on_one_grid_match_one_model_with_a_copy_of_the_states_per_trial(
     # opty's way by hand: one model whose states are the three trials' copies
     xs, vs, Fs = (dynamicsymbols(f"{s}1:4") for s in "xvF")
     equations = []
-    for xi, vi, Fi in zip(xs, vs, Fs):
+    for xi, vi, Fi in zip(xs, vs, Fs, strict=True):
         equations += [xi.diff(t) - vi, m * vi.diff(t) + c * vi + k * xi - Fi]
     stacked = Model.from_equations(
         equations,
-        [s for pair in zip(xs, vs) for s in pair],
+        [s for pair in zip(xs, vs, strict=True) for s in pair],
         outputs=list(xs),
         known_inputs=list(Fs),
     )
@@ -129,13 +131,13 @@ def test_trials_on_one_grid_match_one_model_with_a_copy_of_the_states_per_trial(
     by_hand = Problem(
         stacked,
         times,
-        known_trajectories={Fi: f for Fi, (_, f, _, _) in zip(Fs, data)},
+        known_trajectories={Fi: f for Fi, (_, f, _, _) in zip(Fs, data, strict=True)},
         known_parameters={m: MASS},
-        objective=Tracking({xi: d for xi, (_, _, d, _) in zip(xs, data)}),
+        objective=Tracking({xi: d for xi, (_, _, d, _) in zip(xs, data, strict=True)}),
         cache=False,
     )
     start = {}
-    for xi, vi, (ts, _, d, _) in zip(xs, vs, data):
+    for xi, vi, (ts, _, d, _) in zip(xs, vs, data, strict=True):
         start.update({xi: d, vi: np.gradient(d, ts)})
     reference = by_hand.solve(by_hand.initial_guess(start, {c: 0.3, k: 15.0}), **QUIET)
     assert reference.success
@@ -147,7 +149,7 @@ def test_trials_on_one_grid_match_one_model_with_a_copy_of_the_states_per_trial(
     assert ours.degrees_of_freedom == theirs.degrees_of_freedom
     np.testing.assert_allclose(ours.covariance, theirs.covariance, rtol=1e-5)
     # each trial's own solution carries its trajectory and the shared estimate
-    for i, (_, _, d, states) in enumerate(data):
+    for i, (_, _, _, states) in enumerate(data):
         own = solution[i]
         assert own.parameters[k] == solution.parameters[k]
         assert np.sqrt(np.mean((own.trajectories[x] - states[:, 0]) ** 2)) < 2 * SIGMA
@@ -207,7 +209,7 @@ def test_the_sandwich_blocks_lie_inside_trials_and_match_reweighted_resolves():
     def objectives(scales):
         # one tracking term per block (NaN elsewhere), weighted by its scale
         out = []
-        for (ts, _, d, _), starts, own in zip(data, halves, scales):
+        for (ts, _, d, _), starts, own in zip(data, halves, scales, strict=True):
             terms = []
             for b, first in enumerate(starts):
                 last = starts[b + 1] if b + 1 < len(starts) else ts.size
@@ -233,7 +235,7 @@ def test_the_sandwich_blocks_lie_inside_trials_and_match_reweighted_resolves():
             for sign in (1.0, -1.0):
                 scales = [list(s) for s in ones]
                 scales[i][b] = 1.0 + sign * eps
-                for p, terms in zip(trials.problems, objectives(scales)):
+                for p, terms in zip(trials.problems, objectives(scales), strict=True):
                     p.replace_data(objective=terms)
                 again = trials.solve(solution.z, **QUIET)
                 assert again.success
@@ -248,12 +250,14 @@ def test_the_bound_of_several_trials_adds_their_information():
     data = trial_data(4)
     problems = [one_problem(ts, f, d) for ts, f, d, _ in data]
     truth = [
-        p.initial_guess({x: s[:, 0], v: s[:, 1]}, TRUTH) for p, (_, _, _, s) in zip(problems, data)
+        p.initial_guess({x: s[:, 0], v: s[:, 1]}, TRUTH)
+        for p, (_, _, _, s) in zip(problems, data, strict=True)
     ]
     trials = Trials(problems)
     whole = cramer_rao_bound(trials, trials.initial_guess(truth), SIGMA**2)
     information = sum(
-        np.linalg.inv(cramer_rao_bound(p, z, SIGMA**2).covariance) for p, z in zip(problems, truth)
+        np.linalg.inv(cramer_rao_bound(p, z, SIGMA**2).covariance)
+        for p, z in zip(problems, truth, strict=True)
     )
     np.testing.assert_allclose(whole.covariance, np.linalg.inv(information), rtol=1e-9)
 
