@@ -22,14 +22,17 @@ truth sits on its bound ``c >= 0``, posed with the library's defaults: how many 
 on the bound, whether each of those is marked unreliable with no standard error for ``c``, and
 the coverage of the free parameter.
 
-The case ``trials`` (``..._trials.json``) is several trials sharing parameters
-(``colloc.Trials``): the four trials of ``docs/examples/trials.py`` (their own lengths, rates,
-forces, starts and sensor offsets; damping and stiffness shared) with an unmodelled smooth
-disturbance force added, so that the residuals are correlated within a trial and only
-errors that know where trials begin and end can be honest. Per parameter: coverage of the
-library's default errors (the sandwich, blocks inside trials) and of the KKT errors.
+The cases ``trials-slow`` and ``trials-motor`` (``..._trials-slow.json``, ...) are several
+trials sharing parameters (``colloc.Trials``): the four trials of
+``docs/examples/shared_trials.py`` (their own lengths, rates, forces, starts and sensor
+offsets; damping and stiffness shared) with a disturbance force added (an unmodelled smooth
+one, or motor noise), so that the residuals are correlated within a trial. Per parameter:
+coverage of the library's default errors (the sandwich, blocks inside trials), of the KKT
+errors, of the sandwich with two blocks per trial, and (motor noise) of the MAP fit that
+models the noise.
 
-Usage: python benchmarks/uncertainty_calibration.py [--links 1 2] [--cases a b c bound trials]
+Usage: python benchmarks/uncertainty_calibration.py [--links 1 2]
+       [--cases a b c bound trials-slow trials-motor]
        [--realisations 50] [--duration 30] [--workers 2]
        [--out benchmarks/results/uncertainty_calibration.json]
 """
@@ -37,6 +40,7 @@ Usage: python benchmarks/uncertainty_calibration.py [--links 1 2] [--cases a b c
 from __future__ import annotations
 
 import argparse
+import functools
 import json
 import os
 import time
@@ -222,23 +226,30 @@ def bound_case(realisations: int, seed0: int = 0) -> dict[str, Any]:
     }
 
 
-def trials_case(realisations: int, seed0: int = 0) -> dict[str, Any]:
-    """Several trials sharing parameters, with an unmodelled disturbance (module docstring):
-    ``colloc.Trials`` of the docs example's four trials, each realisation's disturbance 20
-    sines between 0.3 and 8 Hz at random phases (rms 0.4 N against forces of 2-5 N) and
-    position noise 2 mm, fitted with the library's defaults (Hermite-Simpson, exact
-    dynamics); errors by ``parameter_uncertainty`` as a user calls it, and by
-    ``method="kkt"``."""
+#: Disturbances of the several-trials case: an unmodelled smooth force (20 sines between 0.3
+#: and 8 Hz at random phases, rms 0.4 N against driving forces of 2-5 N), or motor noise (white
+#: at the samples, linear between them, sd 0.5 N) that a MAP fit can model.
+TRIAL_DISTURBANCES = ("slow", "motor")
+
+
+def trials_case(realisations: int, disturbance: str, seed0: int = 0) -> dict[str, Any]:
+    """Several trials sharing parameters (module docstring): ``colloc.Trials`` of the docs
+    example's four trials (Hermite-Simpson, position noise 2 mm) with a disturbance
+    (:data:`TRIAL_DISTURBANCES`), fitted with exact dynamics and errors by
+    ``parameter_uncertainty`` as a user calls it (the default), by ``method="kkt"``, and by
+    the sandwich with two blocks per trial; with motor noise also by the MAP fit that models
+    it (``process_noise``), default errors."""
     import sys
 
     import sympy as sm
     from scipy.integrate import solve_ivp
+    from sympy.physics.mechanics import dynamicsymbols
 
     import colloc
 
     sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "docs" / "examples"))
     try:
-        import trials as example
+        import shared_trials as example
     finally:
         sys.path.pop(0)
     c, k, m, F, x, v, y = (
@@ -250,6 +261,8 @@ def trials_case(realisations: int, seed0: int = 0) -> dict[str, Any]:
         example.v,
         example.y,
     )
+    w = dynamicsymbols("w")
+    motor_sd = 0.5
     truth = {str(p): value for p, value in example.SHARED.items()}
     offsets = [sm.Symbol(f"b{i}") for i in range(len(example.TRIALS))]
     truth.update({str(b): design[-1] for b, design in zip(offsets, example.TRIALS, strict=True)})
@@ -257,82 +270,123 @@ def trials_case(realisations: int, seed0: int = 0) -> dict[str, Any]:
     rows = []
     for seed in range(seed0, seed0 + realisations):
         rng = np.random.default_rng(seed)
-        problems, guesses = [], []
+        exact_fits, map_fits, guesses = [], [], []
         for b, (duration, rate, amplitude, frequency, start, offset) in zip(
             offsets, example.TRIALS, strict=True
         ):
             times = np.arange(0.0, duration + 0.5 / rate, 1.0 / rate)
             omega = 2 * np.pi * rng.uniform(0.3, 8.0, 20)
             phase = rng.uniform(0, 2 * np.pi, 20)
+            noise = rng.normal(0.0, motor_sd, times.size)
 
             def force(s, amplitude=amplitude, frequency=frequency):
                 return amplitude * np.sin(frequency * s) + 0.5 * amplitude * np.sin(
                     3.7 * frequency * s
                 )
 
-            def rhs(s, state, force=force, omega=omega, phase=phase):
-                push = force(s) + gain * np.sum(np.sin(omega * s + phase))
+            def push(s, omega=omega, phase=phase, times=times, noise=noise):
+                if disturbance == "slow":
+                    return gain * np.sum(np.sin(omega * s + phase))
+                return np.interp(s, times, noise)
+
+            def rhs(s, state, force=force, push=push):
+                total = force(s) + push(s)
                 return [
                     state[1],
-                    push - example.SHARED[c] * state[1] - example.SHARED[k] * state[0],
+                    total - example.SHARED[c] * state[1] - example.SHARED[k] * state[0],
                 ]
 
             exact = solve_ivp(
-                rhs, times[[0, -1]], start, t_eval=times, rtol=1e-10, atol=1e-12, max_step=0.01
+                rhs,
+                times[[0, -1]],
+                start,
+                t_eval=times,
+                rtol=1e-10,
+                atol=1e-12,
+                max_step=0.5 / rate,
             ).y[0]
             sensor = exact + offset + rng.normal(0.0, example.SIGMA, times.size)
-            problem = colloc.Problem(
-                example.plant(b),
-                times,
-                scheme=colloc.transcription.HermiteSimpson(),
-                known_trajectories={F: force(times)},
-                known_parameters={m: 1.0},
-                objective=colloc.Tracking({y: sensor}, 1.0 / example.SIGMA**2),
-            )
-            problems.append(problem)
-            guesses.append(
-                problem.initial_guess({x: sensor, v: np.gradient(sensor, times)}, {b: 0.0})
-            )
-        design = colloc.Trials(problems)
-        solution = design.solve(design.initial_guess(guesses, {c: 1.0, k: 10.0}))
-        default = colloc.parameter_uncertainty(design, solution, discretisation=False)
-        kkt = colloc.parameter_uncertainty(design, solution, method="kkt", discretisation=False)
-        rows.append(
-            {
-                "seed": seed,
-                "success": solution.success,
-                "method": default.method,
-                "blocks": default.blocks,
-                "estimate": {str(p): solution.parameters[p] for p in design.unknown_parameters},
-                "se_default": {
-                    str(p): default.standard_errors[p] for p in design.unknown_parameters
-                },
-                "se_kkt": {str(p): kkt.standard_errors[p] for p in design.unknown_parameters},
+            pose = {
+                "scheme": colloc.transcription.HermiteSimpson(),
+                "known_trajectories": {F: force(times)},
+                "known_parameters": {m: 1.0},
+                "objective": colloc.Tracking({y: sensor}, 1.0 / example.SIGMA**2),
             }
-        )
-    good = [r for r in rows if r["success"]]
-
-    def coverage(key: str) -> dict[str, float]:
-        return {
-            name: float(
-                np.mean([abs(r["estimate"][name] - true) <= 3 * r[key][name] for r in good])
+            exact_fits.append(colloc.Problem(example.plant(b), times, **pose))
+            if disturbance == "motor":
+                noisy = example.plant(b).with_disturbances({F: w})
+                map_fits.append(colloc.Problem(noisy, times, process_noise={w: motor_sd}, **pose))
+            guesses.append(({x: sensor, v: np.gradient(sensor, times)}, {b: 0.0}))
+        row: dict[str, Any] = {"seed": seed}
+        for fit, problems in (("exact", exact_fits), ("map", map_fits)):
+            if not problems:
+                continue
+            design = colloc.Trials(problems)
+            z0 = design.initial_guess(
+                [p.initial_guess(*g) for p, g in zip(problems, guesses, strict=True)],
+                {c: 1.0, k: 10.0},
             )
-            for name, true in truth.items()
+            solution = design.solve(z0)
+            names = [str(p) for p in design.unknown_parameters]
+            row[fit] = {
+                "success": solution.success,
+                "estimate": dict(
+                    zip(names, map(solution.parameters.get, design.unknown_parameters), strict=True)
+                ),
+            }
+            ways = {"default": {}}
+            if fit == "exact":
+                ways["kkt"] = {"method": "kkt"}
+                ways["halves"] = {"method": "sandwich", "blocks": 2}
+            for way, options in ways.items():
+                errors = colloc.parameter_uncertainty(
+                    design, solution, discretisation=False, **options
+                )
+                row[fit][f"se_{way}"] = {
+                    str(p): errors.standard_errors[p] for p in design.unknown_parameters
+                }
+                row[fit][f"method_{way}"] = f"{errors.method} ({errors.blocks} blocks)"
+        rows.append(row)
+
+    def summary(fit: str, way: str) -> dict[str, Any]:
+        good = [r[fit] for r in rows if r[fit]["success"]]
+        key = f"se_{way}"
+        return {
+            "method": good[0][f"method_{way}"] if good else None,
+            "failed": len(rows) - len(good),
+            "within_3_se": {
+                n: float(np.mean([abs(r["estimate"][n] - t) <= 3 * r[key][n] for r in good]))
+                for n, t in truth.items()
+            },
+            "spread_over_mean_se": {
+                n: float(
+                    np.std([r["estimate"][n] for r in good], ddof=1)
+                    / np.mean([r[key][n] for r in good])
+                )
+                for n in truth
+            },
+            "bias_in_spread": {
+                n: float(
+                    (np.mean([r["estimate"][n] for r in good]) - t)
+                    / np.std([r["estimate"][n] for r in good], ddof=1)
+                )
+                for n, t in truth.items()
+            },
         }
 
-    spread = {name: float(np.std([r["estimate"][name] for r in good], ddof=1)) for name in truth}
-    return {
+    record: dict[str, Any] = {
         "case": "trials",
+        "disturbance": disturbance,
         "realisations": len(rows),
-        "failed": len(rows) - len(good),
         "truth": truth,
-        "within_3_se_default": coverage("se_default"),
-        "within_3_se_kkt": coverage("se_kkt"),
-        "spread": spread,
-        "mean_se_default": {n: float(np.mean([r["se_default"][n] for r in good])) for n in truth},
-        "mean_se_kkt": {n: float(np.mean([r["se_kkt"][n] for r in good])) for n in truth},
-        "runs": rows,
+        "exact_default": summary("exact", "default"),
+        "exact_kkt": summary("exact", "kkt"),
+        "exact_halves": summary("exact", "halves"),
     }
+    if disturbance == "motor":
+        record["map_default"] = summary("map", "default")
+    record["runs"] = rows
+    return record
 
 
 def figure(results: list[dict[str, Any]], path: Path) -> None:
@@ -372,7 +426,7 @@ def main() -> None:
         "--cases",
         nargs="+",
         default=["a", "b", "c"],
-        choices=["a", "b", "c", "bound", "trials"],
+        choices=["a", "b", "c", "bound", "trials-slow", "trials-motor"],
     )
     parser.add_argument("--realisations", type=int, default=50)
     parser.add_argument("--duration", type=float, default=30.0)
@@ -383,7 +437,11 @@ def main() -> None:
     args = parser.parse_args()
     args.out.parent.mkdir(parents=True, exist_ok=True)
     results = []
-    for name, run in (("bound", bound_case), ("trials", trials_case)):
+    runs = {"bound": bound_case} | {
+        f"trials-{kind}": functools.partial(trials_case, disturbance=kind)
+        for kind in TRIAL_DISTURBANCES
+    }
+    for name, run in runs.items():
         if name in args.cases:
             t0 = time.perf_counter()
             record = run(args.realisations)

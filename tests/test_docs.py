@@ -151,7 +151,7 @@ def test_the_own_model_example_recovers_its_parameters(tmp_path):
 def test_the_trials_example_recovers_shared_and_own_parameters():
     sys.path.insert(0, str(DOCS / "examples"))
     try:
-        import trials
+        import shared_trials as trials
     finally:
         sys.path.pop(0)
     table = trials.main()

@@ -267,6 +267,8 @@ def _uncertainty(
     nlp = design.nlp
     q = len(design.unknown_parameters)
     starts = _trial_block_starts(blocks, design) if method == "sandwich" else None
+    if starts is not None:
+        _check_blocks_per_parameter(design, starts)
     if num_measurements is None:
         num_measurements = count_measurements(design)
     n, m = nlp.n, nlp.m
@@ -465,6 +467,22 @@ def _trial_block_starts(
             )
         out.append(_block_starts(list(own), N, least=1, name=f"blocks[{k}]"))
     return out
+
+
+def _check_blocks_per_parameter(design: Trials, starts: list[np.ndarray]) -> None:
+    """Refuse blocks that leave a parameter informed by a single block: its residuals'
+    gradient sums to zero over that block at the optimum, so the sandwich would call it
+    exact."""
+    lonely = []
+    for s in design.unknown_parameters:
+        holders = [k for k, p in enumerate(design.problems) if s in p.partition.unknown_parameters]
+        if sum(starts[k].size for k in holders) < 2:
+            lonely.append(f"{name_of(s)} ({design.names[holders[0]]}'s own)")
+    if lonely:
+        raise ValueError(
+            f"blocks: {', '.join(lonely)} would be informed by one block only, whose gradient "
+            "vanishes at the optimum (a standard error of 0): give its trial at least 2 blocks"
+        )
 
 
 def _block_starts(

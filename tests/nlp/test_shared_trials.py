@@ -320,3 +320,42 @@ def test_trials_and_their_errors_refuse_what_they_cannot_take():
         parameter_uncertainty(trials, solution, method="sandwich", blocks=[0, 50])
     with pytest.raises(ValueError, match=r"blocks\[1\]: first node 400 is beyond"):
         parameter_uncertainty(trials, solution, method="sandwich", blocks=[[0], [0, 400]])
+
+
+def test_a_trial_s_own_parameter_needs_two_sandwich_blocks_in_its_trial():
+    b0, b1, y = sm.Symbol("b0"), sm.Symbol("b1"), dynamicsymbols("y")
+    problems = []
+    for b, (ts, f, d, _) in zip((b0, b1), trial_data(8)[:2], strict=True):
+        model = Model.from_equations(
+            [x.diff(t) - v, m * v.diff(t) + c * v + k * x - F],
+            [x, v],
+            outputs={y: x + b},
+            known_inputs=[F],
+            parameters=[m, c, k, b],
+        )
+        problems.append(
+            Problem(
+                model,
+                ts,
+                known_trajectories={F: f},
+                known_parameters={m: MASS},
+                objective=Tracking({y: d + 0.01}),
+                cache=False,
+            )
+        )
+    trials = Trials(problems)
+    guesses = [
+        p.initial_guess({x: d, v: np.gradient(d, ts)}, {b: 0.0})
+        for p, b, (ts, _, d, _) in zip(problems, (b0, b1), trial_data(8)[:2], strict=True)
+    ]
+    solution = trials.solve(trials.initial_guess(guesses, {c: 0.3, k: 15.0}), **QUIET)
+    assert set(trials.unknown_parameters) == {c, k, b0, b1}
+    assert solution.parameters[b1] == pytest.approx(0.01, abs=5 * SIGMA)
+    # one block in trial 1: b1's only block has a vanishing gradient at the optimum
+    with pytest.raises(ValueError, match=r"b1 \(trial 1's own\) would be informed by one block"):
+        parameter_uncertainty(trials, solution, method="sandwich", blocks=[[0, 60], [0]])
+    two = parameter_uncertainty(
+        trials, solution, method="sandwich", blocks=[[0, 60], [0, 70]], discretisation=False
+    )
+    assert two.blocks == 4
+    assert all(se > 0 for se in two.standard_errors.values())

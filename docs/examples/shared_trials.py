@@ -5,7 +5,7 @@ sensor offset (the marker was taped anew each time); damping and stiffness are s
 trial is a ``colloc.Problem``; ``colloc.Trials`` solves them as one estimate, and
 ``colloc.parameter_uncertainty`` gives sandwich errors whose blocks lie inside trials. Run::
 
-    python docs/examples/trials.py
+    python docs/examples/shared_trials.py
 
 It prints the estimates with their standard errors against the truth.
 """
