@@ -20,7 +20,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from colloc.cli import build_parser, pendulum_checks
+from colloc.cli import build_parser
+from colloc.cli.pendulum import pendulum_checks
 from colloc.data.checks import TrialError
 from colloc.data.trial import read_trial
 from colloc.identify.pendulum_settings import PendulumSettings
@@ -269,7 +270,7 @@ GAIT_CHOICES = {
 def test_fuzzed_gait_command_lines_are_checked_without_an_exception(seed, tmp_path):
     """``colloc gait simulate|identify``: the parser's exit 2, or the checks after parsing
     give problem sentences (a trial too big for the machine among them) and nothing else."""
-    from colloc.cli import gait_identify_checks, gait_simulate_checks
+    from colloc.cli.gait import gait_identify_checks, gait_simulate_checks
 
     rng = np.random.default_rng(13000 + seed)
     simulate = bool(rng.integers(2))
@@ -326,7 +327,7 @@ def _assert_a_simulation_that_may_start(settings) -> None:
 def test_each_gait_simulate_number_alone_is_refused_by_name_or_lies_in_its_range(flag, tmp_path):
     """One flag at a time, the rest at their defaults: every value either passes the checks
     and lies in the range the simulation works in, or a problem names the flag."""
-    from colloc.cli import gait_simulate_checks
+    from colloc.cli.gait import gait_simulate_checks
 
     passed = 0
     for value in GAIT_NUMBERS:

@@ -7,8 +7,9 @@ from pathlib import Path
 import pytest
 
 from colloc.batch import BatchSpecError, expand_batch, read_batch_spec, task_key
-from colloc.cli import build_parser, pendulum_checks
+from colloc.cli import build_parser
 from colloc.cli.batch import KINDS, build_tasks, entry_argv
+from colloc.cli.pendulum import pendulum_checks
 
 KIND_NAMES = tuple(KINDS)
 

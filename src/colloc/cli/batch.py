@@ -20,13 +20,10 @@ from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
 
-from colloc.cli import (
-    _report_problems,
-    build_parser,
-    gait_identify_checks,
-    gait_simulate_checks,
-    pendulum_checks,
-)
+from colloc.cli import build_parser
+from colloc.cli.common import ALLOW_OTHER_TABLES_HELP, cluster_flags, path_arg, report_problems
+from colloc.cli.gait import gait_identify_checks, gait_simulate_checks
+from colloc.cli.pendulum import pendulum_checks
 
 
 @dataclass(frozen=True)
@@ -365,7 +362,7 @@ def pendulum_repeat(args: argparse.Namespace, settings: Any, problems: list[str]
     settings : PendulumSettings
         Of the first seed.
     problems : list of str
-        Found by :func:`colloc.cli.pendulum_checks`.
+        Found by :func:`colloc.cli.pendulum.pendulum_checks`.
 
     Returns
     -------
@@ -384,7 +381,7 @@ def pendulum_repeat(args: argparse.Namespace, settings: Any, problems: list[str]
         unsupported.append("--json: not with --repeat (the batch report goes to --out)")
     if args.no_store:
         unsupported.append("--no-store: --repeat stores every run (the batch needs them)")
-    if _report_problems("colloc pendulum", problems + unsupported):
+    if report_problems("colloc pendulum", problems + unsupported):
         return 2
     tasks = []
     for i in range(args.repeat):
@@ -434,3 +431,36 @@ BATCH_COMMANDS: dict[str, Callable[[argparse.Namespace], int]] = {
     "report": _batch_report,
     "list": _batch_list,
 }
+
+
+def add_parser(sub: Any, default_url: str) -> None:
+    """``colloc batch [run] SPEC.yaml``, ``colloc batch report ID``, ``colloc batch list``."""
+    b = sub.add_parser(
+        "batch",
+        help="many runs at once from a YAML file, on Dask; their record and report",
+        description="colloc batch SPEC.yaml runs every entry of the file (the same as "
+        "'colloc batch run SPEC.yaml').",
+    )
+    bs = b.add_subparsers(dest="batch_command", required=True)
+    db = argparse.ArgumentParser(add_help=False)
+    db.add_argument(
+        "--db", default=None, help=f"results database URL (default: the file's, else {default_url})"
+    )
+    run = bs.add_parser("run", help="run a batch file", parents=[db])
+    run.add_argument("spec", type=path_arg, help="the batch file (YAML)")
+    run.add_argument("--db-allow-other-tables", action="store_true", help=ALLOW_OTHER_TABLES_HELP)
+    run.add_argument(
+        "--check", action="store_true", help="check every entry and stop, running nothing"
+    )
+    cluster_flags(run)
+    report = bs.add_parser("report", help="write a batch's tables and figures", parents=[db])
+    report.add_argument("batch_id", help="the id, or a unique prefix")
+    report.add_argument(
+        "--out", type=path_arg, default=None, help="folder (default: batch-report-<id prefix>)"
+    )
+    bs.add_parser("list", help="list recorded batches", parents=[db])
+
+
+def run(args: argparse.Namespace) -> int:
+    """Run ``colloc batch ...``; the exit status."""
+    return BATCH_COMMANDS[args.batch_command](args)

@@ -7,7 +7,7 @@ import math
 from pathlib import Path
 from typing import Any
 
-from colloc.cli import _number, _path, _report_problems
+from colloc.cli.common import number, path_arg, report_problems
 
 COMMAND = "colloc gait trial-from-lab"
 
@@ -48,11 +48,11 @@ def add_parser(gs: Any) -> None:
         "zero-lag filter, planar inverse kinematics and dynamics, heel strikes",
     )
     p.add_argument(
-        "markers", type=_path, help="marker export (tab or comma separated; may hold the plates)"
+        "markers", type=path_arg, help="marker export (tab or comma separated; may hold the plates)"
     )
-    p.add_argument("--forces", type=_path, default=None, help="force-plate export, if separate")
-    p.add_argument("--mass", type=_number, required=True, help="body mass, kg")
-    p.add_argument("--height", type=_number, required=True, help="body height, m")
+    p.add_argument("--forces", type=path_arg, default=None, help="force-plate export, if separate")
+    p.add_argument("--mass", type=number, required=True, help="body mass, kg")
+    p.add_argument("--height", type=number, required=True, help="body height, m")
     p.add_argument(
         "--belt-speed",
         type=_belt,
@@ -60,25 +60,25 @@ def add_parser(gs: Any) -> None:
         metavar="M/S|COLUMN",
         help="treadmill belt speed: a constant in m/s (0 overground) or the export's column",
     )
-    p.add_argument("--out", type=_path, required=True, help="trial folder to write")
+    p.add_argument("--out", type=path_arg, required=True, help="trial folder to write")
     p.add_argument("--overwrite", action="store_true", help="replace an existing trial folder")
     p.add_argument(
         "--cutoff",
-        type=_number,
+        type=number,
         default=None,
         metavar="HZ",
         help="zero-lag low-pass cut-off (-3 dB) for markers and forces (default 6 Hz)",
     )
     p.add_argument(
         "--max-gap",
-        type=_number,
+        type=number,
         default=None,
         metavar="S",
         help="longest marker gap filled by a smoothing spline (default 0.25 s)",
     )
     p.add_argument(
         "--strike-threshold",
-        type=_number,
+        type=number,
         default=None,
         metavar="N",
         help="vertical force whose upward crossing is a heel strike (default 100 N, as "
@@ -201,7 +201,7 @@ def run(args: argparse.Namespace) -> int:
     from colloc.lab.pipeline import trial_from_lab
 
     settings, problems = trial_from_lab_checks(args)
-    if _report_problems(COMMAND, problems):
+    if report_problems(COMMAND, problems):
         return 2
     try:
         result = trial_from_lab(
@@ -212,7 +212,7 @@ def run(args: argparse.Namespace) -> int:
             force_names=args.force_columns,
         )
     except LabFileError as error:
-        _report_problems(COMMAND, [f"{error.source}: {p}" for p in error.problems])
+        report_problems(COMMAND, [f"{error.source}: {p}" for p in error.problems])
         return 2
     path = result.trial.write(Path(args.out), overwrite=args.overwrite)
     trial = result.trial
