@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import time
 from collections.abc import Callable, Mapping, Sequence
+from dataclasses import replace
 from typing import Any
 
 import numpy as np
@@ -19,7 +20,8 @@ from colloc.nlp.known import KnownTrajectory
 from colloc.nlp.layout import Layout
 from colloc.nlp.objective import DisturbancePrior, NodeTerm, ObjectiveTerm, Tracking
 from colloc.nlp.placement import GridData, assemble
-from colloc.nlp.solution import Solution
+from colloc.nlp.residuals import systematic_misfit
+from colloc.nlp.solution import Solution, SolveStats
 from colloc.nlp.solving import checked_guess, solve_watched
 from colloc.nlp.spec import (
     Bounds,
@@ -37,6 +39,7 @@ from colloc.nlp.spec import (
 from colloc.nlp.templates import Partition
 from colloc.solve.gauss_newton import ChainStructure, GaussNewtonOptions, solve_gauss_newton
 from colloc.solve.ipopt import STALL_SECONDS
+from colloc.solve.result import SolveResult
 from colloc.transcription.base import Scheme, TimeGrid
 from colloc.transcription.interpolation import Interpolation
 from colloc.transcription.midpoint import Midpoint
@@ -592,7 +595,7 @@ class Problem:
             stall_seconds=stall_seconds,
             options=ipopt_options,
         )
-        solution = Solution.from_result(self, result)
+        solution = solution_from_result(self, result)
         # what determined the solve's path, beside IPOPT's options
         solution.stats["scale"] = {name_of(k): float(v) for k, v in (scale or {}).items()}
         return solution
@@ -673,7 +676,7 @@ class Problem:
         """
         z0 = self._checked_guess(initial_guess)
         result = solve_gauss_newton(self.nlp, z0, self.chain_structure(), options, progress)
-        return Solution.from_result(self, result)
+        return solution_from_result(self, result)
 
     def defects(self, z: np.ndarray) -> np.ndarray:
         """Constraint values at ``z`` (row order as in :attr:`layout`)."""
@@ -706,3 +709,91 @@ def _key_name(key: Any) -> str:
     if isinstance(key, tuple):
         return "(" + ", ".join(map(name_of, key)) + ")"
     return name_of(key)
+
+
+def solution_from_result(problem: Problem, result: SolveResult) -> Solution:
+    """A :class:`Solution` from a solve's raw result, named with the problem's layout: the
+    trajectories, the estimates beside the known values, the parameters a bound holds, the
+    tracked signals whose residuals are systematic (``status.notes``), and the statistics.
+
+    Parameters
+    ----------
+    problem : Problem
+        The problem that was solved.
+    result : SolveResult
+        Its solve (IPOPT's or the Gauss-Newton solver's).
+
+    Returns
+    -------
+    Solution
+    """
+    lay = problem.layout
+    X = lay.node_matrix(result.x)
+    node_funcs = list(problem.model.states) + list(problem.partition.free_inputs)
+    traj: dict[sm.Basic, np.ndarray] = {s: X[:, j].copy() for j, s in enumerate(node_funcs)}
+    traj.update({r: v.copy() for r, v in problem.known_trajectories.items()})
+    params: dict[sm.Symbol, float] = dict(problem.known_parameters)
+    est = result.x[lay.parameter_offset :]
+    params.update(zip(problem.partition.unknown_parameters, map(float, est), strict=True))
+    status = replace(
+        result.status,
+        at_bounds=_at_bounds(problem, est),
+        notes=result.status.notes + tuple(systematic_misfit(problem, result.x)),
+    )
+    stats = {
+        "status": result.status.name,
+        "status_code": result.status.code,
+        "success": result.status.success,
+        "message": str(status),
+        "at_bounds": list(status.at_bounds),
+        "hint": result.status.hint,
+        "iterations": result.iterations,
+        "objective": result.objective,
+        "constraint_violation": result.constraint_violation,
+        "build_time": problem.build_time,
+        "solve_time": result.solve_time,
+        # derive: SymPy -> CasADi translation and differentiation (or the cache load);
+        # build: the rest of the problem's construction (layout, index arrays, data).
+        "times": {
+            "derive": problem.derive_time,
+            "build": problem.build_time - problem.derive_time,
+            "solve": result.solve_time,
+        },
+        "cache_hit": problem.cache_hit,
+        "num_variables": lay.num_variables,
+        "num_constraints": lay.num_constraints,
+        "nnz_jacobian": problem.nlp.nnz_jacobian,
+        "nnz_hessian": problem.nlp.nnz_hessian,
+        "scheme": problem.scheme.name,
+        "ipopt_options": result.options,
+        "history": result.history,
+        "ipopt_log": result.log,
+    }
+    return Solution(
+        problem.grid.times.copy(),
+        traj,
+        params,
+        problem.partition.unknown_parameters,
+        status,
+        SolveStats(stats),
+        result.x.copy(),
+        result.multipliers,
+    )
+
+
+def _at_bounds(problem: Problem, estimates: np.ndarray) -> tuple[str, ...]:
+    """Names of the unknown parameters within ``1e-6 (1 + |bound|)`` of a finite bound."""
+    lo, hi = problem.variable_bounds()
+    offset = problem.layout.parameter_offset
+    lo, hi = lo[offset:], hi[offset:]
+    near = np.zeros(estimates.shape, bool)
+    for bound in (lo, hi):
+        finite = np.abs(bound) < 1e19  # unbounded is +-1e20
+        near[finite] |= np.abs(estimates[finite] - bound[finite]) <= 1e-6 * (
+            1.0 + np.abs(bound[finite])
+        )
+    return tuple(
+        name_of(p)
+        for p, flag in zip(problem.partition.unknown_parameters, near, strict=True)
+        if flag
+    )

@@ -18,14 +18,31 @@ is only checked for being larger than its assumed standard deviation.
 
 from __future__ import annotations
 
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
-from typing import TYPE_CHECKING
+from typing import Any, Protocol
 
 import numpy as np
 from scipy import stats
 
-if TYPE_CHECKING:
-    from colloc.nlp.problem import Problem
+from colloc.nlp.assembly import AssembledNLP
+from colloc.nlp.objective import NodeTerm
+
+
+class LeastSquaresProblem(Protocol):
+    """What the residuals are read from: a built problem's NLP and objective terms (a
+    :class:`colloc.Problem` is one). Its own measured-input and process-noise terms are the
+    last of ``node_terms``, in that order."""
+
+    @property
+    def nlp(self) -> AssembledNLP: ...  # noqa: D102
+    @property
+    def node_terms(self) -> Sequence[NodeTerm]: ...  # noqa: D102
+    @property
+    def measured_inputs(self) -> Mapping[Any, Any]: ...  # noqa: D102
+    @property
+    def process_noise(self) -> Mapping[Any, Any]: ...  # noqa: D102
+
 
 #: Lag-1 autocorrelations outside which residuals are reported as not white: above, slow
 #: residuals (a disturbance the model misses); below, alternating ones (the process noise
@@ -127,13 +144,14 @@ class ResidualDiagnostics:
 
 
 def tracking_residuals(
-    problem: Problem, z: np.ndarray, kind: str | None = None
+    problem: LeastSquaresProblem, z: np.ndarray, kind: str | None = None
 ) -> list[SignalResiduals]:
     """The residuals of every signal of every least-squares term of ``problem`` at ``z``.
 
     Parameters
     ----------
     problem : Problem
+        Or anything holding its NLP and objective terms (:class:`LeastSquaresProblem`).
     z : ndarray
         A free vector, e.g. ``solution.z``.
     kind : str, optional
@@ -211,7 +229,7 @@ class SignalColumns:
         return out
 
 
-def signal_columns(problem: Problem) -> list[SignalColumns]:
+def signal_columns(problem: LeastSquaresProblem) -> list[SignalColumns]:
     """The columns of every signal of every least-squares term, in the order of
     :func:`tracking_residuals`.
 
@@ -222,6 +240,7 @@ def signal_columns(problem: Problem) -> list[SignalColumns]:
     Parameters
     ----------
     problem : Problem
+        Or anything holding its NLP and objective terms (:class:`LeastSquaresProblem`).
 
     Returns
     -------
@@ -247,13 +266,14 @@ def signal_columns(problem: Problem) -> list[SignalColumns]:
 
 
 def residual_diagnostics(
-    problem: Problem, z: np.ndarray, reference_variance: float = 1.0
+    problem: LeastSquaresProblem, z: np.ndarray, reference_variance: float = 1.0
 ) -> ResidualDiagnostics:
     """Whiteness and size of the residuals of every tracked signal at ``z``.
 
     Parameters
     ----------
     problem : Problem
+        Or anything holding its NLP and objective terms (:class:`LeastSquaresProblem`).
     z : ndarray
         Usually ``solution.z``.
     reference_variance : float
@@ -324,7 +344,7 @@ def residual_diagnostics(
     return ResidualDiagnostics(tuple(signals), tuple(warnings))
 
 
-def systematic_misfit(problem: Problem, z: np.ndarray) -> list[str]:
+def systematic_misfit(problem: LeastSquaresProblem, z: np.ndarray) -> list[str]:
     """Notes for the tracked signals whose residuals at ``z`` are systematic, not noise.
 
     A fit that stopped at a worse local optimum, or whose model misses a disturbance, leaves
@@ -336,6 +356,7 @@ def systematic_misfit(problem: Problem, z: np.ndarray) -> list[str]:
     Parameters
     ----------
     problem : Problem
+        Or anything holding its NLP and objective terms (:class:`LeastSquaresProblem`).
     z : ndarray
 
     Returns

@@ -1,22 +1,22 @@
-"""The result of a solve: trajectories, parameters and solver statistics, as data."""
+"""The result of a solve: trajectories, parameters and solver statistics, as data.
+
+A :class:`Solution` holds no problem: :func:`colloc.nlp.problem.solution_from_result` makes
+one from a solve's raw result with the problem's layout, and diagnostics are functions over a
+problem and a solution (:mod:`colloc.nlp.residuals`, :mod:`colloc.nlp.uncertainty`)."""
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
 import sympy as sm
 
 from colloc.model.symbols import name_of
-from colloc.nlp.residuals import systematic_misfit
 from colloc.solve.status import SolveStatus
 
 if TYPE_CHECKING:
     import pandas as pd
-
-    from colloc.nlp.problem import Problem
-    from colloc.solve.result import SolveResult
 
 
 @dataclass
@@ -58,62 +58,6 @@ class Solution:
     stats: dict[str, Any]
     z: np.ndarray
     multipliers: np.ndarray = field(repr=False, default_factory=lambda: np.zeros(0))
-
-    @classmethod
-    def from_result(cls, problem: Problem, result: SolveResult) -> Solution:
-        """Unpack an :class:`SolveResult` with the problem's layout."""
-        lay = problem.layout
-        X = lay.node_matrix(result.x)
-        node_funcs = list(problem.model.states) + list(problem.partition.free_inputs)
-        traj: dict[sm.Basic, np.ndarray] = {s: X[:, j].copy() for j, s in enumerate(node_funcs)}
-        traj.update({r: v.copy() for r, v in problem.known_trajectories.items()})
-        params: dict[sm.Symbol, float] = dict(problem.known_parameters)
-        est = result.x[lay.parameter_offset :]
-        params.update(zip(problem.partition.unknown_parameters, map(float, est), strict=True))
-        status = replace(
-            result.status,
-            at_bounds=_at_bounds(problem, est),
-            notes=result.status.notes + tuple(systematic_misfit(problem, result.x)),
-        )
-        stats = {
-            "status": result.status.name,
-            "status_code": result.status.code,
-            "success": result.status.success,
-            "message": str(status),
-            "at_bounds": list(status.at_bounds),
-            "hint": result.status.hint,
-            "iterations": result.iterations,
-            "objective": result.objective,
-            "constraint_violation": result.constraint_violation,
-            "build_time": problem.build_time,
-            "solve_time": result.solve_time,
-            # derive: SymPy -> CasADi translation and differentiation (or the cache load);
-            # build: the rest of the problem's construction (layout, index arrays, data).
-            "times": {
-                "derive": problem.derive_time,
-                "build": problem.build_time - problem.derive_time,
-                "solve": result.solve_time,
-            },
-            "cache_hit": problem.cache_hit,
-            "num_variables": lay.num_variables,
-            "num_constraints": lay.num_constraints,
-            "nnz_jacobian": problem.nlp.nnz_jacobian,
-            "nnz_hessian": problem.nlp.nnz_hessian,
-            "scheme": problem.scheme.name,
-            "ipopt_options": result.options,
-            "history": result.history,
-            "ipopt_log": result.log,
-        }
-        return cls(
-            problem.grid.times.copy(),
-            traj,
-            params,
-            problem.partition.unknown_parameters,
-            status,
-            SolveStats(stats),
-            result.x.copy(),
-            result.multipliers,
-        )
 
     @property
     def success(self) -> bool:
@@ -170,21 +114,3 @@ class _Elided(str):
 
     def __repr__(self) -> str:
         return str(self)
-
-
-def _at_bounds(problem: Problem, estimates: np.ndarray) -> tuple[str, ...]:
-    """Names of the unknown parameters within ``1e-6 (1 + |bound|)`` of a finite bound."""
-    lo, hi = problem.variable_bounds()
-    offset = problem.layout.parameter_offset
-    lo, hi = lo[offset:], hi[offset:]
-    near = np.zeros(estimates.shape, bool)
-    for bound in (lo, hi):
-        finite = np.abs(bound) < 1e19  # unbounded is +-1e20
-        near[finite] |= np.abs(estimates[finite] - bound[finite]) <= 1e-6 * (
-            1.0 + np.abs(bound[finite])
-        )
-    return tuple(
-        name_of(p)
-        for p, flag in zip(problem.partition.unknown_parameters, near, strict=True)
-        if flag
-    )

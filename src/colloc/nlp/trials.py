@@ -20,7 +20,7 @@ import sympy as sm
 from colloc.model.errors import ProblemDefinitionError, raise_if_any
 from colloc.model.symbols import name_of
 from colloc.nlp.composite import CompositeNLP
-from colloc.nlp.problem import Problem
+from colloc.nlp.problem import Problem, solution_from_result
 from colloc.nlp.solution import Solution, SolveStats
 from colloc.nlp.solving import checked_guess, solve_watched
 from colloc.solve.ipopt import STALL_SECONDS
@@ -350,7 +350,7 @@ class TrialsSolution:
                 constraint_violation=float(np.max(np.abs(defects), initial=0.0)),
                 multipliers=mu,
             )
-            own.append(Solution.from_result(p, local))
+            own.append(solution_from_result(p, local))
         held = {name for s in own for name in s.status.at_bounds}
         at_bounds = tuple(name_of(s) for s in trials.unknown_parameters if name_of(s) in held)
         notes = tuple(
