@@ -25,7 +25,8 @@ from results_file import append_record
 
 from colloc import Problem, Tracking
 from colloc.gait.trials import COLUMN_NOISE_GROUP, DEFAULT_NOISE_STD
-from colloc.solve import gauss_newton
+from colloc.solve.gauss_newton.condensing import Step, segment_bounds
+from colloc.solve.gauss_newton.structure import Chain
 from colloc.transcription import BackwardEuler
 
 RESULTS = Path(__file__).parent / "results" / "gauss_newton_step.json"
@@ -72,10 +73,10 @@ def main() -> None:
         {x: signals[columns[x]].to_numpy() for x in model.states},
         gs.parameter_values(1.1 * Tstar, 0.9 * K),
     )
-    chain = gauss_newton._Chain(problem.nlp, problem.chain_structure())
+    chain = Chain(problem.nlp, problem.chain_structure())
     blocks_s, blocks = median_seconds(lambda: chain.blocks(problem.nlp, z), args.repeats)
     for length in args.segment_nodes:
-        step = gauss_newton._Step(chain, gauss_newton._segments(chain.N, length))
+        step = Step(chain, segment_bounds(chain.N, length))
         condense_s, reduced = median_seconds(
             lambda step=step: step.condense(blocks, np.inf, 1e-6), args.repeats
         )
