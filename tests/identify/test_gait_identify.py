@@ -11,7 +11,7 @@ import yaml
 
 from colloc.cli import main
 from colloc.gait.closed_loop import simulate_walking
-from colloc.identify.gait import _read
+from colloc.identify.gait_read import read_gait_data
 from colloc.identify.gait_settings import GaitIdentifySettings
 
 FIXTURE = Path(__file__).parent / "data" / "gait_trial_p20"
@@ -124,7 +124,7 @@ def copy_fixture(tmp_path: Path) -> Path:
 
 def read_error(trial: Path, **settings) -> str:
     with pytest.raises(ValueError) as info:
-        _read(GaitIdentifySettings(trial=trial, **settings))
+        read_gait_data(GaitIdentifySettings(trial=trial, **settings))
     return str(info.value)
 
 
@@ -192,7 +192,7 @@ def test_process_noise_fit_estimates_disturbances_and_reports_sandwich_errors(tm
     # 9 disturbances at every node beside the 18 states
     N = summary["problem"]["nodes"]
     assert summary["problem"]["variables"] == N * (18 + 9) + summary["problem"]["parameters"]
-    data = _read(GaitIdentifySettings(trial=FIXTURE, phase="controller", fit_fraction=0.6))
+    data = read_gait_data(GaitIdentifySettings(trial=FIXTURE, phase="controller", fit_fraction=0.6))
     t = data.fit.time[data.rows]
     strikes = data.trial.right_heel_strikes
     blocks = 1 + np.count_nonzero((strikes > t[0] + 1e-9) & (strikes < t[-1]))

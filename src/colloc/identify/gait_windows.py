@@ -17,6 +17,10 @@ from typing import Any
 
 import numpy as np
 
+from colloc.data.split import stride_windows, take_rows
+from colloc.data.trial import Trial
+from colloc.identify.gait_read import subject
+from colloc.identify.gait_settings import GaitIdentifySettings
 from colloc.identify.gait_smoother import GaitSmoother, SmoothedGait, SmootherSettings
 
 Progress = Callable[[str, str], None]
@@ -123,3 +127,54 @@ def smooth_windows(
         for job, result in zip(jobs, results, strict=True):
             progress("windows", f"{job.label}{result.stages[-1].describe()}")
     return results
+
+
+def window_facts(result: Any) -> dict[str, Any]:
+    """What one smoothed window cost and where it ran (the summary's ``windows``)."""
+    return {
+        "start": float(result.times[0]),
+        "stop": float(result.times[-1]),
+        "nodes": int(result.times.size),
+        "iterations": int(sum(s.iterations for s in result.stages)),
+        "seconds": float(result.seconds),
+        "process": result.process,
+    }
+
+
+def fit_windows(
+    settings: GaitIdentifySettings, times: np.ndarray, strikes: np.ndarray
+) -> list[tuple[int, int]]:
+    """The smoother's windows of a record: all of it, or ``settings.window_strides``."""
+    if settings.window_strides is None:
+        return [(0, times.size)]
+    return stride_windows(times, strikes, settings.window_strides)
+
+
+def window_jobs(
+    part: Trial,
+    rows: np.ndarray,
+    windows: list[tuple[int, int]],
+    meta: dict[str, Any],
+    name: str,
+) -> list[Any]:
+    """One smoothing job per window of ``part``'s samples ``rows`` (each its own samples
+    alone: what travels to a worker)."""
+    body = subject(meta)
+    return [
+        WindowJob(
+            take_rows(part, rows[first:stop]),
+            np.arange(stop - first),
+            "" if len(windows) == 1 else f"{name} {k + 1}/{len(windows)}, ",
+            *body,
+        )
+        for k, (first, stop) in enumerate(windows)
+    ]
+
+
+def prefixed(say: Progress, step: str) -> Progress:
+    """``say`` under ``step``, each stage's name leading its report."""
+
+    def report(stage: str, detail: str) -> None:
+        say(step, f"{stage}: {detail}")
+
+    return report

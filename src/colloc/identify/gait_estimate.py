@@ -1,0 +1,98 @@
+"""A gait controller estimate, and how far it is from the truth a synthetic trial records."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from colloc.control.gain_scheduled import GainScheduled
+from colloc.data.columns import JOINT_ANGLE_COLUMNS, JOINT_RATE_COLUMNS, TORQUE_COLUMNS
+from colloc.identify.gait_read import (
+    GaitData,
+    recorded_controller,
+)
+
+#: The controller structures' names in :class:`GainScheduled`.
+JOINT_NAMES = tuple(c.removesuffix("_torque") for c in TORQUE_COLUMNS)
+
+
+@dataclass
+class ControllerEstimate:
+    """One controller ``T*``, ``K`` with optional standard errors and the square roots of the
+    Cramer-Rao bound's diagonal (the best standard deviations the design allows)."""
+
+    Tstar: np.ndarray
+    K: np.ndarray
+    Tstar_se: np.ndarray | None = None
+    K_se: np.ndarray | None = None
+    Tstar_bound: np.ndarray | None = None
+    K_bound: np.ndarray | None = None
+
+
+def true_controller(
+    meta: dict[str, Any], data: GaitData, gs: GainScheduled, notes: list[str]
+) -> ControllerEstimate | None:
+    """The trial's true controller when it lies in the identified class."""
+    recorded = recorded_controller(meta)
+    if recorded is None or not {"Tstar", "K", "mask"} <= set(recorded):
+        return None
+    Tstar = np.asarray(recorded["Tstar"], dtype=float)
+    K = np.asarray(recorded["K"], dtype=float)
+    names = list(recorded.get("feedback", JOINT_ANGLE_COLUMNS + JOINT_RATE_COLUMNS))
+    if Tstar.shape[0] != data.points or names != data.feedback:
+        notes.append(
+            f"the trial's controller (P = {Tstar.shape[0]}, feedback {names}) is not of the "
+            f"identified class (P = {data.points}, feedback {data.feedback}): no errors "
+            "against the truth"
+        )
+        return None
+    if np.any(K[:, ~gs.mask] != 0):
+        notes.append(
+            "the trial's controller has gains outside the identified structure; its errors "
+            "count those gains as missed"
+        )
+    return ControllerEstimate(Tstar, K)
+
+
+def estimate_metrics(
+    collocation: ControllerEstimate,
+    direct: ControllerEstimate,
+    truth: ControllerEstimate | None,
+    mask: np.ndarray,
+) -> dict[str, float | None]:
+    out: dict[str, float | None] = dict.fromkeys(
+        (
+            "K_relative_error",
+            "Tstar_relative_error",
+            "direct_K_relative_error",
+            "direct_Tstar_relative_error",
+            "fraction_within_3se",
+            "K_relative_bound",
+            "Tstar_relative_bound",
+        )
+    )
+    if collocation.K_bound is not None and collocation.Tstar_bound is not None:
+        from colloc.identify.gait_controller_fit import relative_spread
+
+        # relative to the truth when there is one, else to the estimate
+        reference = truth or collocation
+        out["K_relative_bound"] = relative_spread(collocation.K_bound, reference.K)
+        out["Tstar_relative_bound"] = relative_spread(collocation.Tstar_bound, reference.Tstar)
+    if truth is None:
+        return out
+    for prefix, est in (("", collocation), ("direct_", direct)):
+        out[f"{prefix}K_relative_error"] = _relative(est.K, truth.K)
+        out[f"{prefix}Tstar_relative_error"] = _relative(est.Tstar, truth.Tstar)
+    if collocation.K_se is not None and collocation.Tstar_se is not None:
+        error = np.r_[
+            (collocation.Tstar - truth.Tstar).ravel(), (collocation.K - truth.K)[:, mask].ravel()
+        ]
+        se = np.r_[collocation.Tstar_se.ravel(), collocation.K_se[:, mask].ravel()]
+        out["fraction_within_3se"] = float(np.mean(np.abs(error) <= 3.0 * se))
+    return out
+
+
+def _relative(estimate: np.ndarray, truth: np.ndarray) -> float:
+    return float(np.linalg.norm(estimate - truth) / np.linalg.norm(truth))

@@ -1,0 +1,264 @@
+"""Read a gait trial for identification: checked, split at a right heel strike, a fit window
+of whole strides; the phase, the measured states, the subject and the trial's recorded
+controller (a synthetic trial's truth)."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any, TypeGuard
+
+import numpy as np
+
+from colloc.data.columns import JOINT_ANGLE_COLUMNS, JOINT_RATE_COLUMNS, TORQUE_COLUMNS
+from colloc.data.phase import causal_gait_phase, unwrapped_gait_phase
+from colloc.data.split import split
+from colloc.data.trial import Trial, read_trial
+from colloc.identify.direct import smooth_with_derivatives
+from colloc.identify.gait_settings import DEFAULT_POINTS, GaitIdentifySettings
+
+
+@dataclass
+class GaitData:
+    """The checked trial, its two parts and the fit window."""
+
+    trial: Trial
+    fit: Trial
+    held_out: Trial
+    rows: np.ndarray  # fit-part rows of the window
+    feedback: list[str]
+    points: int
+    mask_metadata: np.ndarray | None
+
+
+def state_names() -> tuple[str, ...]:
+    from colloc.gait.metadata import STATE_SIGNAL_NAMES
+
+    return STATE_SIGNAL_NAMES
+
+
+def recorded_controller(meta: dict[str, Any]) -> dict[str, Any] | None:
+    """The controller entry of a trial's metadata (a synthetic trial's truth), or None."""
+    recorded = meta.get("controller")
+    return recorded if isinstance(recorded, dict) else None
+
+
+def _feedback_names(choice: str, meta: dict[str, Any]) -> list[str]:
+    from colloc.gait.design import FEEDBACK_SETS
+
+    if choice == "metadata":
+        recorded = recorded_controller(meta) or {}
+        if "feedback" in recorded:
+            return list(recorded["feedback"])
+        return list(JOINT_ANGLE_COLUMNS + JOINT_RATE_COLUMNS)
+    names = state_names()
+    return [names[i] for i in FEEDBACK_SETS[choice]]
+
+
+def tracked_columns(track: tuple[str, ...]) -> list[str]:
+    from colloc.data.columns import TRUNK_COLUMNS, TRUNK_RATE_COLUMNS
+
+    groups = {
+        "trunk": list(TRUNK_COLUMNS),
+        "angles": list(JOINT_ANGLE_COLUMNS),
+        "rates": list(TRUNK_RATE_COLUMNS + JOINT_RATE_COLUMNS),
+        "torques": list(TORQUE_COLUMNS),
+    }
+    return [
+        c for name in ("trunk", "angles", "rates", "torques") if name in track for c in groups[name]
+    ]
+
+
+def read_gait_data(settings: GaitIdentifySettings) -> GaitData:
+    """Read and check the trial; split it; choose the fit window. All problems at once."""
+    trial = read_trial(settings.trial)
+    meta = trial.metadata
+    problems: list[str] = []
+    feedback = _feedback_names(settings.feedback, meta)
+    unknown = [n for n in feedback if n not in state_names()]
+    if unknown:
+        problems.append(f"metadata: controller feedback names {unknown} are not state signals")
+    needed = set(feedback) - set(unknown)
+    needed |= {"belt_speed", *TORQUE_COLUMNS, *tracked_columns(settings.track)}
+    needed |= set(JOINT_ANGLE_COLUMNS) | {"trunk_x", "trunk_y", "trunk_angle"}
+    if settings.phase == "controller":
+        needed.add("controller_phase")
+    missing = sorted(needed - set(trial.signals.columns))
+    if missing:
+        problems.append(
+            f"trial: missing columns {missing} (needed by the feedback, the tracked signals, "
+            f"the belt or --phase {settings.phase})"
+        )
+    recorded = recorded_controller(meta)
+    mask_metadata = None
+    points = settings.points
+    if recorded is not None:
+        problems += _metadata_problems(recorded)
+        if not problems and "mask" in recorded:
+            mask_metadata = np.asarray(recorded["mask"], dtype=bool)
+        if points is None and isinstance(recorded.get("num_points"), int):
+            points = int(recorded["num_points"])
+    points = DEFAULT_POINTS if points is None else points
+    strikes = trial.right_heel_strikes
+    if strikes.size < 4:
+        problems.append(
+            f"trial: expected right heel strikes to split and phase the trial, found "
+            f"{strikes.size} (events file)"
+        )
+    if problems:
+        raise ValueError("colloc gait identify: " + "; ".join(problems))
+
+    t0, t1 = float(trial.time[0]), float(trial.time[-1])
+    target = t0 + settings.fit_fraction * (t1 - t0)
+    split_strike = float(strikes[np.argmin(np.abs(strikes - target))])
+    index = int(np.searchsorted(trial.time, split_strike - 1e-9))
+    fit, held_out = split(trial, index / trial.time.size)
+    first = fit.time[0] + settings.start
+    window_strikes = fit.right_heel_strikes[fit.right_heel_strikes >= first - 1e-9]
+    if settings.duration is not None:
+        window_strikes = window_strikes[window_strikes <= first + settings.duration + 1e-9]
+    strides = window_strikes.size - 1
+    width = 1 + (len(feedback) if settings.structure == "full" else 2)
+    if strides < 2:
+        problems.append(
+            f"fit window: from {first:.2f} s{'' if settings.duration is None else f' for {settings.duration} s'}"
+            f" holds {max(strides, 0)} complete strides between right heel strikes; expected "
+            f"at least 2 (lengthen --duration or lower --start)"
+        )
+    else:
+        rows = np.flatnonzero(
+            (fit.time >= window_strikes[0] - 1e-9) & (fit.time <= window_strikes[-1] + 1e-9)
+        )
+        # each schedule point's least squares needs more samples nearby than unknowns; about
+        # 2 h-spaced samples per point per stride reach it after width / 2 strides
+        samples_per_point = rows.size / points
+        if samples_per_point < width:
+            problems.append(
+                f"fit window: {rows.size} samples for P = {points} points of {width} unknowns "
+                f"per torque; expected at least {width * points} (record more strides, or "
+                f"lower --points)"
+            )
+    if problems:
+        raise ValueError("colloc gait identify: " + "; ".join(problems))
+    return GaitData(trial, fit, held_out, rows, feedback, points, mask_metadata)
+
+
+def trial_digest(trial: Trial) -> str:
+    from colloc.store.ids import digest_arrays
+
+    return digest_arrays(
+        {
+            "time": trial.time,
+            "signals": trial.signals.select_dtypes("number").to_numpy(),
+            "right_heel_strikes": trial.right_heel_strikes,
+            "left_heel_strikes": trial.left_heel_strikes,
+        }
+    )
+
+
+def _metadata_problems(recorded: dict[str, Any]) -> list[str]:
+    out = []
+    names = recorded.get("feedback")
+    if names is not None and not isinstance(names, list):
+        return [f"metadata: controller feedback: expected a list of names, found {names!r}"]
+    if {"Tstar", "K", "mask"} <= set(recorded):
+        arrays = {}
+        for key, kind in (("Tstar", float), ("K", float), ("mask", bool)):
+            try:
+                arrays[key] = np.asarray(recorded[key], dtype=kind)
+            except (TypeError, ValueError) as error:
+                out.append(
+                    f"metadata: controller {key}: expected a rectangular array of numbers, "
+                    f"found one that is not ({error})"
+                )
+        if out:
+            return out
+        Tstar, K, mask = arrays["Tstar"], arrays["K"], arrays["mask"]
+        ns = len(names) if names is not None else 2 * len(TORQUE_COLUMNS)
+        m = len(TORQUE_COLUMNS)
+        P = Tstar.shape[0] if Tstar.ndim == 2 else -1
+        if Tstar.shape != (P, m) or K.shape != (P, m, ns) or mask.shape != (m, ns):
+            out.append(
+                f"metadata: controller Tstar {Tstar.shape}, K {K.shape} and mask {mask.shape} "
+                f"disagree with {m} torques and {ns} feedback signals; expected (P, {m}), "
+                f"(P, {m}, {ns}) and ({m}, {ns})"
+            )
+        num_points = recorded.get("num_points")
+        if num_points is not None and num_points != P:
+            out.append(f"metadata: controller num_points {num_points} but Tstar has {P} rows")
+    return out
+
+
+def gait_phase(convention: str, trial: Any, t: np.ndarray, signals: Any) -> np.ndarray:
+    """Unwrapped phase in cycles at times ``t``: causal from the right heel strikes (the
+    default), linear between them, or the trial's ``controller_phase`` column (``signals``,
+    rows at ``t``)."""
+    if convention == "controller":
+        return signals["controller_phase"].to_numpy(dtype=float)
+    strikes = trial.right_heel_strikes
+    if convention == "heel-strikes":
+        return unwrapped_gait_phase(t, strikes)
+    stride, phi0, _ = causal_phase_parameters(trial.metadata, strikes)
+    return causal_gait_phase(t, strikes, stride, phi0)
+
+
+def causal_phase_parameters(
+    metadata: dict[str, Any], strikes: np.ndarray
+) -> tuple[float, float, str]:
+    """``D``, ``phi_0`` and where they came from, for :func:`colloc.data.causal_gait_phase`.
+
+    A synthetic trial records its controller's (``controller.stride_duration``,
+    ``controller.phase_at_strike``); otherwise ``D`` is the designed cycle's duration
+    (``cycle.duration``) or the median stride, and ``phi_0`` is 0 (the schedule starts at the
+    heel strike).
+
+    Parameters
+    ----------
+    metadata : dict
+        The trial's metadata.
+    strikes : ndarray
+        Right heel-strike times.
+
+    Returns
+    -------
+    stride_duration : float
+    phase_at_strike : float
+    source : str
+    """
+    controller = metadata.get("controller") if isinstance(metadata, dict) else None
+    controller = controller if isinstance(controller, dict) else {}
+    cycle = metadata.get("cycle") if isinstance(metadata, dict) else None
+    cycle = cycle if isinstance(cycle, dict) else {}
+    recorded, designed = controller.get("stride_duration"), cycle.get("duration")
+    if _positive(recorded):
+        stride, source = float(recorded), "the trial's controller"
+    elif _positive(designed):
+        stride, source = float(designed), "the trial's designed cycle"
+    else:
+        stride, source = float(np.median(np.diff(strikes))), "the median stride"
+    given = controller.get("phase_at_strike")
+    phi0 = float(given) if isinstance(given, int | float) and 0 <= given < 1 else 0.0
+    return stride, phi0, source
+
+
+def _positive(value: object) -> TypeGuard[float]:
+    return isinstance(value, int | float) and not isinstance(value, bool) and 0 < value < np.inf
+
+
+def measured_states(t: np.ndarray, signals: Any, window: float) -> np.ndarray:
+    """``[q, u]`` from the measured signals: the trial's rate columns where it has them (a gait
+    lab's marker velocities), else Savitzky-Golay derivatives of the positions.
+
+    Measured on the noise-free 60 s default trial: direct identification from the rate
+    columns recovers K exactly, from Savitzky-Golay rates (0.05 s) with 14 % error.
+    """
+    names = state_names()
+    positions = signals[list(names[:9])].to_numpy(dtype=float)
+    if all(c in signals.columns for c in names[9:]):
+        return np.hstack([positions, signals[list(names[9:])].to_numpy(dtype=float)])
+    _, rates, _ = smooth_with_derivatives(t, positions, window)
+    return np.hstack([positions, rates])
+
+
+def subject(meta: dict[str, Any]) -> tuple[float, float]:
+    """Body mass [kg] and height [m] a trial's metadata records (75 kg, 1.8 m if not)."""
+    return float(meta.get("body_mass", 75.0)), float(meta.get("height", 1.8))

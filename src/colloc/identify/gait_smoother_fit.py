@@ -1,0 +1,117 @@
+"""The smoother fit: the dynamically consistent smoother in stride windows (on workers when
+given), then the schedule's two-stage least squares on its signals, with stride-sandwich
+errors and the bound of the design."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from colloc.control.gain_scheduled import GainScheduled
+from colloc.data.columns import TORQUE_COLUMNS
+from colloc.identify.gait_estimate import (
+    ControllerEstimate,
+)
+from colloc.identify.gait_read import (
+    gait_phase,
+    state_names,
+)
+from colloc.identify.gait_stage import Fit, FitContext
+from colloc.identify.gait_windows import (
+    fit_windows,
+    prefixed,
+    window_facts,
+    window_jobs,
+)
+
+
+def smoother_fit(c: FitContext) -> Fit:
+    """The dynamically consistent smoother (:mod:`colloc.identify.gait_smoother`), then the
+    schedule's two-stage least squares on its node signals (or the ordinary least squares at
+    the interval midpoints), with stride-sandwich errors and the bound of the design
+    (:mod:`colloc.identify.gait_controller_fit`)."""
+    from colloc.identify.gait_controller_fit import fit_schedule_with_errors, instruments_pay
+    from colloc.identify.gait_smoother import trial_noise_std
+    from colloc.identify.gait_windows import smooth_windows
+
+    settings, data, gs = c.settings, c.data, c.gs
+    meta = data.trial.metadata
+    windows = fit_windows(settings, c.t, data.trial.right_heel_strikes)
+    jobs = window_jobs(data.fit, data.rows, windows, meta, "stride window")
+    where = "" if c.map_windows is None else " on the workers"
+    c.say("smooth", f"{len(jobs)} window(s){where}: backward Euler, midpoint, continuation")
+    results = smooth_windows(jobs, prefixed(c.say, "smooth"), c.map_windows)
+    c.lap("smooth")
+
+    # Ordinary least squares reads the signals where the scheme holds the dynamics (the
+    # midpoints' averages cancel the midpoint rule's odd-even mode); the instrumented fit
+    # reads the nodes, whose lagged states are the better instruments (on the 120 s motor-
+    # noise trial K 30 % at the nodes, 40 % at the midpoints; docs/gait.md).
+    nodes = sum(r.times.size for r in results)
+    instrumented = bool(settings.instrument_lags) and instruments_pay(gs, nodes)
+    pieces = [(r.times, r.states, r.torques) if instrumented else r.at_dynamics() for r in results]
+    mid_t, mid_states, mid_torques = (
+        np.concatenate(column) for column in zip(*pieces, strict=True)
+    )
+    segments = np.concatenate([np.full(p[0].size, k) for k, p in enumerate(pieces)])
+    if settings.phase == "controller":
+        mid_phase = np.interp(mid_t, c.t, c.phase)
+    else:
+        mid_phase = gait_phase(settings.phase, data.trial, mid_t, None)
+    ok = np.isfinite(mid_phase)
+    index = {n: i for i, n in enumerate(state_names())}
+    feedback = mid_states[:, [index[n] for n in data.feedback]]
+    strides = np.searchsorted(data.trial.right_heel_strikes, mid_t)
+    torque_std = trial_noise_std(meta, TORQUE_COLUMNS[0])
+    motor = meta.get("motor_noise")
+    motor_std = float(motor.get("std", 0.0)) if isinstance(motor, dict) else None
+    noise = None if motor_std is None else np.full(6, np.hypot(torque_std, motor_std))
+    c.say(
+        "controller",
+        f"schedule fit at {int(ok.sum())} points where the dynamics hold, sandwich over strides",
+    )
+    est = fit_schedule_with_errors(
+        gs,
+        mid_phase[ok],
+        feedback[ok],
+        mid_torques[ok],
+        strides[ok],
+        noise,
+        instrument_lags=settings.instrument_lags,
+        segments=segments[ok],
+    )
+    how = f"{est.method} ({est.reason})"
+    c.notes.append(
+        f"schedule: {how}; standard errors: sandwich over {est.blocks} strides; bound: least "
+        "squares with the "
+        "fed-back states known, torque noise "
+        + (
+            f"{float(noise[0]):.3g} N m (measurement and motor noise recorded in the trial)"
+            if noise is not None
+            else "the residual's (no motor noise recorded)"
+        )
+    )
+    c.lap("controller")
+    lasts = [r.stages[-1] for r in results]
+    failed = [last for last in lasts if not last.success]
+    return Fit(
+        ControllerEstimate(est.Tstar, est.K, est.Tstar_se, est.K_se, est.Tstar_bound, est.K_bound),
+        {
+            "status": (failed or lasts)[-1].status,  # a window's failure, else the last's
+            # a failed continuation step is halved, not fatal
+            "success": all(last.success for last in lasts),
+            "iterations": int(sum(s.iterations for r in results for s in r.stages)),
+            "objective": float(sum(last.objective for last in lasts)),
+            "constraint_violation": max(last.max_defect for last in lasts),
+            "message": " | ".join("; ".join(s.describe() for s in r.stages) for r in results),
+            "log": "",
+            "windows": [window_facts(r) for r in results],
+        },
+        _summed_size([r.size for r in results], gs),
+        np.concatenate([r.states[:, 3:9] for r in results]),
+    )
+
+
+def _summed_size(sizes: list[dict[str, int]], gs: GainScheduled) -> dict[str, int]:
+    """The windows' problem sizes summed, with the controller's parameters and the count."""
+    out = {key: sum(size[key] for size in sizes) for key in sizes[0]}
+    return out | {"parameters": len(gs.parameters), "windows": len(sizes)}
