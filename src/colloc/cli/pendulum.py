@@ -7,20 +7,7 @@ import math
 import time
 from typing import Any
 
-from colloc.cli.common import (
-    ALLOW_OTHER_TABLES_HELP,
-    cluster_flags,
-    memory_bytes,
-    number,
-    open_store,
-    output_problems,
-    path_arg,
-    positive_int,
-    print_iteration,
-    report_problems,
-    step_printer,
-    store_or_keep,
-)
+from colloc.cli import common
 
 
 def add_parser(sub: Any, default_url: str) -> None:
@@ -44,21 +31,21 @@ def add_parser(sub: Any, default_url: str) -> None:
     p.add_argument(
         "-n",
         "--numlinks",
-        type=positive_int,
+        type=common.positive_int,
         default=defaults.num_links,
         help="number of links in the pendulum (default %(default)s)",
     )
     p.add_argument(
         "-d",
         "--duration",
-        type=number,
+        type=common.number,
         default=defaults.duration,
         help="duration of the simulation in seconds (default %(default)s)",
     )
     p.add_argument(
         "-s",
         "--samplerate",
-        type=number,
+        type=common.number,
         default=defaults.sample_rate,
         help="sample rate of the data and the discretization, Hz (default %(default)s)",
     )
@@ -83,19 +70,19 @@ def add_parser(sub: Any, default_url: str) -> None:
     )
     p.add_argument(
         "--seed",
-        type=positive_int,
+        type=common.positive_int,
         default=defaults.seed,
         help="random seed (default %(default)s)",
     )
     p.add_argument(
         "--amplitude",
-        type=number,
+        type=common.number,
         default=defaults.force_amplitude,
         help="amplitude of each sine of the cart force, N (default %(default)s)",
     )
     p.add_argument(
         "--noise-std",
-        type=number,
+        type=common.number,
         default=None,
         help=f"angle noise standard deviation with -r, degrees (default {defaults.noise_std_deg})",
     )
@@ -106,7 +93,7 @@ def add_parser(sub: Any, default_url: str) -> None:
     )
     p.add_argument(
         "--process-noise",
-        type=number,
+        type=common.number,
         default=defaults.process_noise,
         metavar="STD",
         help="motor noise on every joint torque, N m per sample (default %(default)s: none); "
@@ -114,7 +101,7 @@ def add_parser(sub: Any, default_url: str) -> None:
     )
     p.add_argument(
         "--input-noise",
-        type=number,
+        type=common.number,
         default=defaults.input_noise,
         metavar="STD",
         help="noise on the measured cart force, N (default %(default)s: exact); with "
@@ -133,22 +120,27 @@ def add_parser(sub: Any, default_url: str) -> None:
     )
     p.add_argument("--db", default=default_url, help="results database URL (default %(default)s)")
     p.add_argument("--no-store", action="store_true", help="do not store the run in the database")
-    p.add_argument("--db-allow-other-tables", action="store_true", help=ALLOW_OTHER_TABLES_HELP)
     p.add_argument(
-        "--out", type=path_arg, default=Path("results"), help="directory for plots and animation"
+        "--db-allow-other-tables", action="store_true", help=common.ALLOW_OTHER_TABLES_HELP
     )
     p.add_argument(
-        "--json", type=path_arg, default=None, help="write a machine-readable summary here"
+        "--out",
+        type=common.path_arg,
+        default=Path("results"),
+        help="directory for plots and animation",
+    )
+    p.add_argument(
+        "--json", type=common.path_arg, default=None, help="write a machine-readable summary here"
     )
     p.add_argument(
         "--repeat",
-        type=positive_int,
+        type=common.positive_int,
         default=None,
         metavar="N",
         help="run N noise realisations (seeds SEED .. SEED+N-1) as a batch on Dask and report "
         "each gain's spread against its mean standard error",
     )
-    cluster_flags(p)
+    common.cluster_flags(p)
 
 
 def pendulum_checks(args: argparse.Namespace) -> tuple[Any, list[str]]:
@@ -190,8 +182,8 @@ def pendulum_checks(args: argparse.Namespace) -> tuple[Any, list[str]]:
         if args.noise_std is not None and not args.sensornoise
         else []
     )
-    too_big = settings.too_big(memory_bytes())
-    outputs = output_problems(args.json, args.out if (args.plot or args.animate) else None)
+    too_big = settings.too_big(common.memory_bytes())
+    outputs = common.output_problems(args.json, args.out if (args.plot or args.animate) else None)
     return settings, settings.problems() + unused + too_big + outputs
 
 
@@ -213,7 +205,7 @@ def run(args: argparse.Namespace) -> int:
         from colloc.cli.batch import pendulum_repeat
 
         return pendulum_repeat(args, settings, problems)
-    if report_problems("colloc pendulum", problems):
+    if common.report_problems("colloc pendulum", problems):
         return 2
     needs = settings.estimated_needs()
     if needs["seconds"] > LONG_RUN_SECONDS:
@@ -223,10 +215,10 @@ def run(args: argparse.Namespace) -> int:
             f"{needs['derive_seconds']:.0f} s of it deriving the equations)",
             flush=True,
         )
-    store = open_store(args)
+    store = common.open_store(args)
     start = time.perf_counter()
-    progress = step_printer(start)
-    run = run_pendulum(settings, progress=progress, iterations=print_iteration)
+    progress = common.step_printer(start)
+    run = run_pendulum(settings, progress=progress, iterations=common.print_iteration)
     run_id = pendulum_run_id(run)
     stats = run.solution.stats
     print(
@@ -261,7 +253,7 @@ def run(args: argparse.Namespace) -> int:
     stored = True
     if store is not None:
         progress("store", f"run {run_id[:12]} -> {args.db}")
-        stored = store_or_keep("colloc pendulum", store, pendulum_record(run, run_id), args)
+        stored = common.store_or_keep("colloc pendulum", store, pendulum_record(run, run_id), args)
     if args.plot:
         progress("plot", f"figures -> {args.out}")
         for path in save_pendulum_plots(run, args.out):
