@@ -190,8 +190,10 @@ def parameter_uncertainty(
     ------
     ValueError
         When there are no unknown parameters, no more measurements than free quantities,
-        the KKT matrix is singular (unidentifiable parameters), or ``method`` or ``blocks``
-        is not one of the accepted values.
+        the KKT matrix is singular (unidentifiable parameters), ``method`` or ``blocks`` is
+        not one of the accepted values, the blocks would leave a parameter only one block (a
+        trial's own parameter in a one-block trial), or ``solution`` is not a solve of
+        ``problem`` (another free vector's length).
 
     Warns
     -----
