@@ -54,14 +54,15 @@ def checked_guess(
     return z0
 
 
-#: Objective curvature (the largest diagonal entry of its Gauss-Newton Hessian at the start)
-#: above which :func:`objective_scaling` scales the objective down to 1. Tracking weights of
-#: ``1 / sigma^2`` for precise sensors reach it: on the own-model example (one position
-#: tracked, 1001 nodes; curvature twice the weight) a weight of 1e8 made MUMPS reallocate its
-#: workspace twice (0.31 s against 0.04 s), 1e10 five times (10.8 s against 0.05 s); weights
-#: up to 1e7 solved as fast unscaled. Measured below it, and left as they were: the pendulum
-#: study (2) and the gait smoother (2e6).
-OBJECTIVE_CURVATURE_LIMIT = 1e7
+#: How many times the objective's curvature (the largest diagonal entry of its Gauss-Newton
+#: Hessian at the start) may exceed the defects' largest Jacobian entry before
+#: :func:`objective_scaling` scales the objective down to the defects' scale. Tracking weights
+#: of ``1 / sigma^2`` for precise sensors pass it: on a mass-spring-damper with its position
+#: tracked at 1001 nodes (Jacobian entries up to 100; curvature twice the weight) a weight of
+#: 1e8 made MUMPS reallocate its workspace twice (0.31 s against 0.04 s), 1e10 five times
+#: (10.8 s against 0.05 s); up to 1e7 it solved as fast unscaled. Measured far below it, and
+#: left as they were: the pendulum study (ratio 0.007) and the gait smoother (12).
+CURVATURE_RATIO_LIMIT = 1e4
 
 
 def objective_scaling(nlp: NLP, z0: np.ndarray) -> float | None:
@@ -70,8 +71,8 @@ def objective_scaling(nlp: NLP, z0: np.ndarray) -> float | None:
     IPOPT's own gradient-based scaling looks at the gradient at the start, which vanishes when
     the start fits the data (a start at the measurements); the Hessian ``2 w J^T J`` then
     still dwarfs the defects' Jacobian in the KKT matrix, whose factorisation MUMPS must
-    redo with more memory. Scaling the objective by ``1 / max diag`` puts both on one scale;
-    the minimiser is the same (the reported objective is IPOPT's unscaled one).
+    redo with more memory. Scaling the objective by ``max |dc/dz| / max diag`` puts both on
+    one scale; the minimiser is the same (the reported objective is IPOPT's unscaled one).
 
     Parameters
     ----------
@@ -82,15 +83,20 @@ def objective_scaling(nlp: NLP, z0: np.ndarray) -> float | None:
     Returns
     -------
     float or None
-        ``1 / max diag`` when that exceeds :data:`OBJECTIVE_CURVATURE_LIMIT`, else None.
+        The factor when the curvature exceeds :data:`CURVATURE_RATIO_LIMIT` times the
+        largest Jacobian entry; None otherwise, or without constraints.
     """
+    if nlp.m == 0:
+        return None
     rows, cols = nlp.hessianstructure()
     values = nlp.gauss_newton_hessian(z0)
-    diagonal = np.abs(values[np.asarray(rows) == np.asarray(cols)])
-    largest = float(diagonal.max(initial=0.0))
-    if not np.isfinite(largest) or largest <= OBJECTIVE_CURVATURE_LIMIT:
+    curvature = float(np.abs(values[np.asarray(rows) == np.asarray(cols)]).max(initial=0.0))
+    defects = float(np.abs(nlp.jacobian(z0)).max(initial=0.0))
+    if not (np.isfinite(curvature) and np.isfinite(defects) and defects > 0):
         return None
-    return 1.0 / largest
+    if curvature <= CURVATURE_RATIO_LIMIT * defects:
+        return None
+    return defects / curvature
 
 
 def solve_watched(
