@@ -57,11 +57,12 @@ def checked_guess(
 #: How many times the objective's curvature (the largest diagonal entry of its Gauss-Newton
 #: Hessian at the start) may exceed the defects' largest Jacobian entry before
 #: :func:`objective_scaling` scales the objective down to the defects' scale. Tracking weights
-#: of ``1 / sigma^2`` for precise sensors pass it: on a mass-spring-damper with its position
-#: tracked at 1001 nodes (Jacobian entries up to 100; curvature twice the weight) a weight of
-#: 1e8 made MUMPS reallocate its workspace twice (0.31 s against 0.04 s), 1e10 five times
-#: (10.8 s against 0.05 s); up to 1e7 it solved as fast unscaled. Measured far below it, and
-#: left as they were: the pendulum study (ratio 0.007) and the gait smoother (12).
+#: of ``1 / sigma^2`` for precise sensors pass it: on the own-model example (a mass on a
+#: hardening spring, its position tracked at 1001 nodes; Jacobian entries up to about 100,
+#: curvature twice the weight) a weight of 1e8 made MUMPS reallocate its workspace twice
+#: (0.31 s against 0.04 s), 1e10 five times (10.8 s against 0.05 s); up to 1e7 it solved as
+#: fast unscaled. Measured far below the limit, and left as they were: the pendulum study
+#: (ratio 0.007) and the gait smoother (12).
 CURVATURE_RATIO_LIMIT = 1e4
 
 
