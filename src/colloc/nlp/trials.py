@@ -123,12 +123,17 @@ class Trials:
             for p, offset in zip(self.problems, self.offsets, strict=True)
         )
         """Per trial: where its free variable ``j`` sits in the whole free vector."""
-        self._composite = CompositeNLP(self.problems, self.index, self.num_variables)
+        # one trial is its own problem's NLP (no index tables to merge, however large)
+        self._composite = (
+            CompositeNLP(self.problems, self.index, self.num_variables)
+            if len(self.problems) > 1
+            else None
+        )
 
     @property
     def nlp(self) -> NLP:
         """The callbacks of the whole NLP (a single trial's own, unchanged)."""
-        if len(self.problems) == 1:
+        if self._composite is None:
             return self.problems[0].nlp
         return self._composite
 
@@ -149,6 +154,8 @@ class Trials:
 
     def split_rows(self, values: np.ndarray) -> list[np.ndarray]:
         """Each trial's share of a vector over the constraint rows (e.g. multipliers)."""
+        if self._composite is None:
+            return [np.asarray(values, dtype=float)]
         return self._composite.split_rows(values)
 
     def describe_variable(self, i: int) -> str:
