@@ -227,6 +227,12 @@ class Problem:
         return tuple(self._node_terms)
 
     @property
+    def free_quantities(self) -> tuple[sm.Basic, ...]:
+        """The states, free inputs and unknown parameters: what the solve determines."""
+        part = self.partition
+        return tuple(self.model.states) + part.free_inputs + part.unknown_parameters
+
+    @property
     def size(self) -> dict[str, int]:
         """``nodes``, ``variables``, ``constraints``, ``nnz_jacobian``, ``nnz_hessian``."""
         lay = self.layout
@@ -391,8 +397,7 @@ class Problem:
                 f"scale: expected a mapping symbol -> typical magnitude, found "
                 f"{type(scale).__name__}"
             )
-        free = set(self.model.states) | set(self.partition.free_inputs)
-        free |= set(self.partition.unknown_parameters)
+        free = set(self.free_quantities)
         problems = []
         for s, value in scale.items():
             try:
@@ -740,42 +745,25 @@ def solution_from_result(problem: Problem, result: SolveResult) -> Solution:
         at_bounds=_at_bounds(problem, est),
         notes=result.status.notes + tuple(systematic_misfit(problem, result.x)),
     )
-    stats = {
-        "status": result.status.name,
-        "status_code": result.status.code,
-        "success": result.status.success,
-        "message": str(status),
-        "at_bounds": list(status.at_bounds),
-        "hint": result.status.hint,
-        "iterations": result.iterations,
-        "objective": result.objective,
-        "constraint_violation": result.constraint_violation,
-        "build_time": problem.build_time,
-        "solve_time": result.solve_time,
-        # derive: SymPy -> CasADi translation and differentiation (or the cache load);
-        # build: the rest of the problem's construction (layout, index arrays, data).
-        "times": {
-            "derive": problem.derive_time,
-            "build": problem.build_time - problem.derive_time,
-            "solve": result.solve_time,
-        },
-        "cache_hit": problem.cache_hit,
-        "num_variables": lay.num_variables,
-        "num_constraints": lay.num_constraints,
-        "nnz_jacobian": problem.nlp.nnz_jacobian,
-        "nnz_hessian": problem.nlp.nnz_hessian,
-        "scheme": problem.scheme.name,
-        "ipopt_options": result.options,
-        "history": result.history,
-        "ipopt_log": result.log,
-    }
+    stats = SolveStats.from_result(
+        result,
+        status,
+        problem.build_time,
+        problem.derive_time,
+        problem.cache_hit,
+        num_variables=lay.num_variables,
+        num_constraints=lay.num_constraints,
+        nnz_jacobian=problem.nlp.nnz_jacobian,
+        nnz_hessian=problem.nlp.nnz_hessian,
+        scheme=problem.scheme.name,
+    )
     return Solution(
         problem.grid.times.copy(),
         traj,
         params,
         problem.partition.unknown_parameters,
         status,
-        SolveStats(stats),
+        stats,
         result.x.copy(),
         result.multipliers,
     )

@@ -269,7 +269,7 @@ def discretisation_error(
     )
     options.update(ipopt_options)
     if scale is None:
-        by_name = {name_of(s): s for p in design.problems for s in _free_quantities(p)}
+        by_name = {name_of(s): s for p in design.problems for s in p.free_quantities}
         recorded = solution.stats.get("scale") or {}
         scale = {by_name[k]: v for k, v in recorded.items() if k in by_name}
     guesses = [
@@ -292,12 +292,4 @@ def discretisation_error(
         f"Richardson, order {order}: the change on a grid twice as fine "
         f"({fine.num_nodes} nodes, {answer.stats['iterations']} iterations) "
         f"times {factor:.4g}",
-    )
-
-
-def _free_quantities(problem: Problem) -> list[sm.Basic]:
-    return (
-        list(problem.model.states)
-        + list(problem.partition.free_inputs)
-        + list(problem.partition.unknown_parameters)
     )

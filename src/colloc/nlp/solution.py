@@ -18,6 +18,8 @@ from colloc.solve.status import SolveStatus
 if TYPE_CHECKING:
     import pandas as pd
 
+    from colloc.solve.result import SolveResult
+
 
 @dataclass
 class Solution:
@@ -94,6 +96,46 @@ class Solution:
 class SolveStats(dict):  # type: ignore[type-arg]
     """A solve's statistics: a plain dict whose printed form summarises the IPOPT log and the
     iteration history instead of dumping them (``stats["ipopt_log"]`` is the whole log)."""
+
+    @classmethod
+    def from_result(
+        cls,
+        result: SolveResult,
+        status: SolveStatus,
+        build_time: float,
+        derive_time: float,
+        cache_hit: bool,
+        **sizes: Any,
+    ) -> SolveStats:
+        """The statistics of a solve: its outcome (``status`` with the solution's bounds and
+        notes), the problem's build times (``derive``: SymPy to CasADi and differentiation,
+        or the cache load; ``build``: the rest of its construction), then ``sizes`` (counts
+        and names of what was solved), IPOPT's options, history and log."""
+        return cls(
+            {
+                "status": result.status.name,
+                "status_code": result.status.code,
+                "success": result.status.success,
+                "message": str(status),
+                "at_bounds": list(status.at_bounds),
+                "hint": result.status.hint,
+                "iterations": result.iterations,
+                "objective": result.objective,
+                "constraint_violation": result.constraint_violation,
+                "build_time": build_time,
+                "solve_time": result.solve_time,
+                "times": {
+                    "derive": derive_time,
+                    "build": build_time - derive_time,
+                    "solve": result.solve_time,
+                },
+                "cache_hit": cache_hit,
+                **sizes,
+                "ipopt_options": result.options,
+                "history": result.history,
+                "ipopt_log": result.log,
+            }
+        )
 
     def __repr__(self) -> str:
         shown = {}

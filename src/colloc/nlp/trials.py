@@ -93,16 +93,16 @@ class Trials:
         if not unknown:
             found.append("problems: none has an unknown parameter, so there is nothing to share")
         self.unknown_parameters: tuple[sm.Symbol, ...] = tuple(unknown)
-        self._bounds: dict[sm.Symbol, tuple[float, float]] = {}
+        bounds: dict[sm.Symbol, tuple[float, ...]] = {}
         for name, p in zip(self.names, self.problems, strict=True):
             for s in p.partition.unknown_parameters:
                 b = tuple(map(float, p.bounds.get(s, (-np.inf, np.inf))))
-                if s in self._bounds and self._bounds[s] != b:
+                if s in bounds and bounds[s] != b:
                     found.append(
-                        f"bounds: {name_of(s)} is bounded {self._bounds[s]} in an earlier trial "
+                        f"bounds: {name_of(s)} is bounded {bounds[s]} in an earlier trial "
                         f"and {b} in {name}; a shared parameter has one range"
                     )
-                self._bounds.setdefault(s, b)  # type: ignore[arg-type]
+                bounds.setdefault(s, b)
         raise_if_any(found, ProblemDefinitionError)
         own = [p.layout.parameter_offset for p in self.problems]
         starts = np.concatenate([[0], np.cumsum(own)]).astype(np.int64)
@@ -193,8 +193,7 @@ class Trials:
             )
         used = set()
         for p, idx in zip(self.problems, self.index, strict=True):
-            free = set(p.model.states) | set(p.partition.free_inputs)
-            free |= set(p.partition.unknown_parameters)
+            free = set(p.free_quantities)
             mine = {s: v for s, v in scale.items() if s in free}
             used |= set(mine)
             out[idx] = p.variable_scale(mine)
@@ -367,32 +366,15 @@ class TrialsSolution:
         )
         status = replace(result.status, at_bounds=at_bounds, notes=result.status.notes + notes)
         estimate = result.x[trials.parameter_offset :]
-        stats = SolveStats(
-            {
-                "status": result.status.name,
-                "status_code": result.status.code,
-                "success": result.status.success,
-                "message": str(status),
-                "at_bounds": list(at_bounds),
-                "hint": result.status.hint,
-                "iterations": result.iterations,
-                "objective": result.objective,
-                "constraint_violation": result.constraint_violation,
-                "build_time": trials.build_time,
-                "solve_time": result.solve_time,
-                "times": {
-                    "derive": float(sum(p.derive_time for p in trials.problems)),
-                    "build": trials.build_time - float(sum(p.derive_time for p in trials.problems)),
-                    "solve": result.solve_time,
-                },
-                "cache_hit": all(p.cache_hit for p in trials.problems),
-                "trials": list(trials.names),
-                "num_variables": trials.num_variables,
-                "num_constraints": trials.nlp.m,
-                "ipopt_options": result.options,
-                "history": result.history,
-                "ipopt_log": result.log,
-            }
+        stats = SolveStats.from_result(
+            result,
+            status,
+            trials.build_time,
+            float(sum(p.derive_time for p in trials.problems)),
+            all(p.cache_hit for p in trials.problems),
+            trials=list(trials.names),
+            num_variables=trials.num_variables,
+            num_constraints=trials.nlp.m,
         )
         return cls(
             tuple(own),

@@ -209,7 +209,7 @@ def parameter_uncertainty(
     result = _uncertainty(design, solution, num_measurements, method, blocks, per_output)
     if not discretisation:
         return result
-    return _with_discretisation(problem, solution, result)
+    return _with_discretisation(design, solution, result)
 
 
 def _as_trials(
@@ -681,7 +681,7 @@ class _ReducedKKT:
 
 
 def _with_discretisation(
-    problem: Problem | Trials, solution: Solution | TrialsSolution, result: ParameterUncertainty
+    design: Trials, solution: Solution | TrialsSolution, result: ParameterUncertainty
 ) -> ParameterUncertainty:
     """``result`` with each parameter's discretisation error; a warning naming those whose
     error is not small beside their standard error."""
@@ -691,7 +691,7 @@ def _with_discretisation(
         return dataclasses.replace(
             result, discretisation_note="not estimated: the solve did not converge"
         )
-    estimate = discretisation_error(problem, solution)
+    estimate = discretisation_error(design, solution)
     large = []
     for p, error in estimate.errors.items():
         se = result.standard_errors.get(p, math.nan)
@@ -702,7 +702,7 @@ def _with_discretisation(
         warnings.warn(
             f"discretisation error above half the standard error: {', '.join(large)}; the "
             f"error bar does not count it: refine the grid or use a higher-order scheme "
-            f"({_as_trials(problem).problems[0].scheme.name}, order {estimate.order})",
+            f"({design.problems[0].scheme.name}, order {estimate.order})",
             DiscretisationWarning,
             stacklevel=3,
         )
