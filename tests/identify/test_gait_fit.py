@@ -139,6 +139,56 @@ def test_instruments_remove_the_bias_of_noise_that_reaches_the_fed_back_signals(
         fit_schedule_with_errors(gs, phase, feedback, torques, blocks, instrument_lags=(0,))
 
 
+def test_instruments_free_of_an_odd_even_error_keep_the_fit_consistent(design):
+    """A regressor error that alternates in sign from sample to sample with a slowly varying
+    size (the midpoint rule's mode in the smoothed node rates) is shared by the same signal one
+    and two samples earlier, so those instruments leave a bias; the means over neighbouring
+    samples cancel it, and the fit with them is consistent and its errors cover it."""
+    gs, _, _, Tstar, K, _, _ = design
+    rng = np.random.default_rng(11)
+    node, paired, paired_se = [], [], []
+    for _ in range(60):
+        phase, feedback, torques, blocks = _closed_loop_sample(gs, Tstar, K, rng, coupling=0.0)
+        drift = np.zeros_like(feedback)
+        for k in range(1, feedback.shape[0]):
+            drift[k] = 0.95 * drift[k - 1] + 0.31 * rng.standard_normal(2)  # sd 1
+        sign = (-1.0) ** np.arange(feedback.shape[0])
+        measured = feedback + sign[:, None] * drift
+        means = measured.copy()
+        means[1:] = 0.5 * (measured[1:] + measured[:-1])
+        node.append(
+            fit_schedule_with_errors(
+                gs, phase, measured, torques, blocks, instrument_lags=(1, 2)
+            ).K.ravel()
+        )
+        est = fit_schedule_with_errors(
+            gs,
+            phase,
+            measured,
+            torques,
+            blocks,
+            instrument_lags=(1, 2),
+            instrument_feedback=means,
+        )
+        paired.append(est.K.ravel())
+        paired_se.append(est.K_se.ravel())
+    node, paired, paired_se = np.array(node), np.array(paired), np.array(paired_se)
+    truth = K.ravel()
+    node_bias = np.abs(node.mean(axis=0) - truth)
+    paired_bias = np.abs(paired.mean(axis=0) - truth)
+    # the node instruments' bias: many Monte Carlo standard errors and a quarter of K (the
+    # error's size is the signal's); the means': none to speak of
+    assert np.median(node_bias / (node.std(axis=0) / np.sqrt(60))) > 5
+    assert np.linalg.norm(node.mean(axis=0) - truth) > 0.15 * np.linalg.norm(truth)
+    assert np.median(paired_bias / (paired.std(axis=0) / np.sqrt(60))) < 3
+    assert np.linalg.norm(paired.mean(axis=0) - truth) < 0.05 * np.linalg.norm(truth)
+    assert (np.abs(paired - truth) <= 3 * paired_se).mean() > 0.93
+    with pytest.raises(ValueError, match=r"instrument_feedback: expected shape \(2000, 2\)"):
+        fit_schedule_with_errors(
+            gs, phase, measured, torques, blocks, (1, 2), instrument_feedback=means[:, :1]
+        )
+
+
 def test_bad_arrays_are_named(design):
     gs, phase, feedback, Tstar, K, law, blocks = design
     with pytest.raises(ValueError, match=r"feedback: expected shape \(2000, 2\)"):

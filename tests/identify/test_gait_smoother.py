@@ -114,6 +114,13 @@ def test_the_smoothed_motion_is_closer_to_the_truth_than_the_measurements(window
     np.testing.assert_allclose(mid_t, 0.5 * (result.times[1:] + result.times[:-1]))
     np.testing.assert_allclose(mid_x[3], 0.5 * (result.states[3] + result.states[4]))
     assert mid_T.shape == (result.times.size - 1, 6)
+    # the instruments' states: positions at the nodes, speeds the mean over the interval
+    # ending at the node, which the midpoint rule's kinematic rows tie to the positions
+    lagged = result.instrument_states()
+    np.testing.assert_array_equal(lagged[:, :9], result.states[:, :9])
+    h = np.diff(result.times)[:, None]
+    np.testing.assert_allclose(lagged[1:, 9:], np.diff(result.states[:, :9], axis=0) / h, atol=1e-5)
+    np.testing.assert_array_equal(lagged[0], result.states[0])
 
 
 def test_radau_iia_converges_from_its_own_start_and_holds_the_dynamics_at_the_nodes(
@@ -136,6 +143,7 @@ def test_radau_iia_converges_from_its_own_start_and_holds_the_dynamics_at_the_no
     assert all(s.success for s in result.stages) and result.stages[-1].friction_velocity == 0.01
     at_t, at_x, at_T = result.at_dynamics()
     np.testing.assert_array_equal(at_t, result.times)  # stiffly accurate: the nodes
+    np.testing.assert_array_equal(result.instrument_states(), result.states)
     rms = lambda a, b: np.sqrt(np.mean((a - b) ** 2, axis=0))  # noqa: E731
     angles = slice(2, 9)
     assert np.all(

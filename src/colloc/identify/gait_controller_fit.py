@@ -88,6 +88,7 @@ def fit_schedule_with_errors(
     noise_std: np.ndarray | None = None,
     instrument_lags: tuple[int, ...] = (),
     segments: np.ndarray | None = None,
+    instrument_feedback: np.ndarray | None = None,
 ) -> ScheduleEstimate:
     """Least squares of ``T = T*(phi) - K(phi) s`` with sandwich errors and the bound.
 
@@ -117,6 +118,13 @@ def fit_schedule_with_errors(
         each sample's record, each record one run of consecutive samples. Lags stay inside a
         record (its first ``max(lags)`` samples are dropped); the information of all records
         is summed. Default: one record.
+    instrument_feedback : ndarray, shape (N, n_s), optional
+        The signals the instruments are built from (lagged as ``instrument_lags`` says);
+        default ``feedback``. An instrument needs to follow the fed-back states, not to equal
+        them: signals free of an error that lagged ``feedback`` shares with ``feedback`` make
+        the fit consistent where lagged ``feedback`` would not (the smoother's node rates and
+        the midpoint rule's odd-even mode:
+        :meth:`colloc.identify.gait_smoother.SmoothedGait.instrument_states`).
 
     Returns
     -------
@@ -152,6 +160,16 @@ def fit_schedule_with_errors(
         problems.append(f"segments: expected shape {phase.shape}, found {segments.shape}")
     elif np.unique(segments).size != 1 + np.count_nonzero(segments[1:] != segments[:-1]):
         problems.append("segments: expected each record to be one run of consecutive samples")
+    if instrument_feedback is None:
+        instrument_feedback = feedback
+    instrument_feedback = np.asarray(instrument_feedback, dtype=float)
+    if instrument_feedback.shape != feedback.shape:
+        problems.append(
+            f"instrument_feedback: expected shape {feedback.shape}, found "
+            f"{instrument_feedback.shape}"
+        )
+    elif not np.all(np.isfinite(instrument_feedback)):
+        problems.append("instrument_feedback: expected finite values, found NaN or inf")
     if problems:
         raise ValueError("fit_schedule_with_errors: " + "; ".join(problems))
     method, reason = "least squares", "asked for"
@@ -184,11 +202,9 @@ def fit_schedule_with_errors(
         # instruments (then theta = (Dh' D)^-1 Dh' T with Dh' D = Dh' Dh)
         used = design
         if lags:
+            lagged = [instrument_feedback[later - lag] for lag in lags]
             instruments = np.hstack(
-                [
-                    schedule_design(controller, phase[later], feedback[later - lag], i)[0]
-                    for lag in lags
-                ]
+                [schedule_design(controller, phase[later], s, i)[0] for s in lagged]
             )
             used = instruments @ np.linalg.lstsq(instruments, design, rcond=None)[0]
         normal_inverse = np.linalg.inv(used.T @ design)

@@ -296,6 +296,29 @@ class SmoothedGait:
             return self.times, self.states, self.torques
         return self.at_intervals()
 
+    def instrument_states(self) -> np.ndarray:
+        """The node states for instruments: each speed replaced by its mean over the interval
+        that ends at the node where the scheme holds the dynamics between nodes.
+
+        Under the midpoint rule only those means are tied to the positions
+        (``(u_(k-1) + u_k) / 2 = (q_k - q_(k-1)) / h``); the node speeds also carry the
+        rule's odd-even mode, which costs the light foot almost no torque and so reaches
+        0.3-0.6 rad/s in the ankle rates. A node speed lagged one or two samples shares that
+        mode with the node speed it instruments; the interval mean does not (docs/gait.md,
+        the 8-minute trial). The first node keeps its own speeds.
+
+        Returns
+        -------
+        ndarray, shape (N, 18)
+        """
+        scheme = self.scheme if self.scheme is not None else self.problem.scheme
+        out = self.states.copy()
+        if scheme.dynamics_at_nodes or out.shape[0] < 2:
+            return out
+        speeds = slice(out.shape[1] // 2, None)
+        out[1:, speeds] = 0.5 * (self.states[1:, speeds] + self.states[:-1, speeds])
+        return out
+
 
 def lowpass(times: np.ndarray, values: np.ndarray, cutoff_hz: float, order: int = 2) -> np.ndarray:
     """Zero-lag Butterworth low-pass of uniformly sampled columns (forward and backward).
