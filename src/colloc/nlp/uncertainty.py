@@ -30,6 +30,7 @@ import scipy.sparse.linalg as spla
 import sympy as sm
 
 from colloc.model.symbols import name_of
+from colloc.nlp.kkt import ReducedKKT
 from colloc.nlp.residuals import SignalResiduals, signal_columns, tracking_residuals
 from colloc.nlp.trials import Trials, TrialsSolution
 
@@ -281,7 +282,7 @@ def _uncertainty(
             f"found {num_measurements}"
         )
     hessian = nlp.hessian(solution.z, solution.multipliers, 1.0)
-    kkt = _ReducedKKT(design, solution.z, hessian)
+    kkt = ReducedKKT(design, solution.z, hessian)
     sigma2 = float(solution.stats["objective"]) / dof
     effective = None
     # each least-squares signal's residual gradients, for the priors' and per-output shares
@@ -382,7 +383,7 @@ PRIOR_UNIT_RANGE = (1e-2, 1e2)
 
 def _per_output_covariance(
     design: Trials,
-    kkt: _ReducedKKT,
+    kkt: ReducedKKT,
     dof_share: float,
     signals: Sequence[SignalResiduals],
     slopes: list[tuple[np.ndarray, np.ndarray]],
@@ -613,71 +614,10 @@ def cramer_rao_bound(
         raise ValueError(f"z: expected shape ({nlp.n},), found {z.shape}")
     if not (np.isfinite(noise_variance) and noise_variance > 0):
         raise ValueError(f"noise_variance: expected a number > 0, found {noise_variance!r}")
-    block = _ReducedKKT(design, z, nlp.gauss_newton_hessian(z)).parameter_block()
+    block = ReducedKKT(design, z, nlp.gauss_newton_hessian(z)).parameter_block()
     return _result(
         design, 2.0 * float(noise_variance) * block, float(noise_variance), None, "cramer-rao"
     )
-
-
-class _ReducedKKT:
-    """The KKT matrix ``K = [[H, C^T], [C, 0]]`` at ``z``, with the parameters eliminated.
-
-    The parameter columns couple every interval, so a direct factorisation of ``K`` fills
-    in badly. Without them ``K_s`` (states and constraints only) is banded in time and
-    factorises cheaply; the parameter rows of ``K^-1`` are then
-    ``S^-1 [-B^T K_s^-1, I]`` with ``B = [H_sp; C_p]`` and the Schur complement
-    ``S = H_pp - B^T K_s^-1 B``.
-    """
-
-    def __init__(self, design: Trials, z: np.ndarray, hessian: np.ndarray) -> None:
-        nlp = design.nlp
-        n, m = nlp.n, nlp.m
-        p0 = design.parameter_offset
-        hr, hc = nlp.hessianstructure()
-        H = sp.coo_matrix((hessian, (hr, hc)), shape=(n, n)).tocsc()
-        H = (H + sp.triu(H.T, k=1)).tocsc()
-        jr, jc = nlp.jacobianstructure()
-        C = sp.coo_matrix((nlp.jacobian(z), (jr, jc)), shape=(m, n)).tocsc()
-        Hss, Hsp, Hpp = H[:p0, :p0], H[:p0, p0:], H[p0:, p0:].toarray()
-        Cs, Cp = C[:, :p0], C[:, p0:]
-        Ks = sp.bmat([[Hss, Cs.T], [Cs, None]], format="csc")
-        self.p0 = p0
-        B = sp.vstack([Hsp, Cp]).toarray()
-        try:
-            lu = spla.splu(Ks)
-        except RuntimeError as exc:
-            raise ValueError(
-                "the KKT matrix at the solution is singular: the states are not determined by "
-                "the data and the dynamics"
-            ) from exc
-        # only X = K_s^-1 B is kept: the factors of K_s are freed with this frame
-        self.X = lu.solve(B)
-        S = Hpp - B.T @ self.X
-        try:
-            self.S_inv = np.linalg.inv(0.5 * (S + S.T))
-        except np.linalg.LinAlgError as exc:
-            raise ValueError(
-                "the reduced Hessian of the parameters is singular: some unknown parameters "
-                "cannot be identified from these data"
-            ) from exc
-
-    def parameter_block(self) -> np.ndarray:
-        """Symmetrised ``[K^-1]_pp``."""
-        return 0.5 * (self.S_inv + self.S_inv.T)
-
-    def parameter_columns(self, index: np.ndarray) -> np.ndarray:
-        """``[K^-1]_p,i`` for free variables ``i`` (not parameters): ``-S^-1 X_i^T``."""
-        return -self.S_inv @ self.X[index].T
-
-    def parameter_rows(self, G: sp.csc_matrix) -> np.ndarray:
-        """``[K^-1]_p,: [G; 0]`` for gradient columns ``G`` (free-vector rows).
-
-        ``K_s`` is symmetric, so ``B^T K_s^-1 = X^T`` with ``X = K_s^-1 B`` already solved:
-        no further solve, and ``G`` stays sparse.
-        """
-        G = sp.csc_matrix(G)
-        Gs, Gp = G[: self.p0], G[self.p0 :].toarray()
-        return self.S_inv @ (Gp - np.asarray((Gs.T @ self.X[: self.p0]).T))
 
 
 def _with_discretisation(
