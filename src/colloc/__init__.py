@@ -36,6 +36,8 @@ _EXPORTS = {
     "refined_problem": "colloc.nlp.refinement",
     "StartsReport": "colloc.nlp.starts",
     "other_starts": "colloc.nlp.starts",
+    "MarginalCorrection": "colloc.nlp.marginal",
+    "marginal_correction": "colloc.nlp.marginal",
     "DiscretisationWarning": "colloc.nlp.uncertainty",
     "ParameterUncertainty": "colloc.nlp.uncertainty",
     "cramer_rao_bound": "colloc.nlp.uncertainty",
@@ -63,6 +65,7 @@ if TYPE_CHECKING:  # for type checkers; re-exported through __all__
         Trials,
         TrialsSolution,
     )
+    from colloc.nlp.marginal import MarginalCorrection, marginal_correction
     from colloc.nlp.refinement import (
         DiscretisationError,
         discretisation_error,
