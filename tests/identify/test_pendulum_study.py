@@ -242,6 +242,17 @@ def test_noise_model_gives_estimates_within_their_error_bars(noisy_runs):
     # the estimated cart force and the disturbance torque are trajectories of the solution
     names = set(modelled.solution.trajectories)
     assert {"F", "w1"} <= {str(getattr(k, "func", k)) for k in names}
+    # the modelled fit reports the marginal likelihood's gains, the joint ones kept in the
+    # solution; the exact-dynamics fit has nothing to integrate out
+    marginal = modelled.marginal
+    assert marginal is not None and today.marginal is None
+    corrected = [marginal.parameters[k] for k in modelled.gain_symbols]
+    joint = [modelled.solution.parameters[k] for k in modelled.gain_symbols]
+    np.testing.assert_array_equal(modelled.identified_gains, corrected)
+    np.testing.assert_allclose(
+        np.subtract(corrected, joint), [marginal.shift[k] for k in modelled.gain_symbols]
+    )
+    assert any("marginal likelihood's (Laplace) correction" in note for note in modelled.notes)
 
 
 def test_a_run_is_sized_before_any_work():
