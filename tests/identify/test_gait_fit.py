@@ -107,6 +107,13 @@ def _closed_loop_sample(gs, Tstar, K, rng, coupling=0.6):
     return phase, feedback, torques, np.floor(phase).astype(int)
 
 
+def _bias_in_monte_carlo_se(estimates: np.ndarray, truth: np.ndarray) -> float:
+    """The median over entries of ``|mean - truth|`` in Monte Carlo standard errors of the
+    mean (``std / sqrt(realisations)``)."""
+    spread = estimates.std(axis=0) / np.sqrt(estimates.shape[0])
+    return float(np.median(np.abs(estimates.mean(axis=0) - truth) / spread))
+
+
 def test_instruments_remove_the_bias_of_noise_that_reaches_the_fed_back_signals(design):
     """Ordinary least squares fits the noise through the signals it reached; two-stage least
     squares on the signals one and two samples earlier does not, and its sandwich errors
@@ -122,12 +129,12 @@ def test_instruments_remove_the_bias_of_noise_that_reaches_the_fed_back_signals(
         iv_se.append(est.K_se.ravel())
     ols, iv, iv_se = np.array(ols), np.array(iv), np.array(iv_se)
     truth = K.ravel()
-    ols_bias = np.abs(ols.mean(axis=0) - truth)
-    iv_bias = np.abs(iv.mean(axis=0) - truth)
     # the least squares' bias is many of its own standard errors of the mean; the IV's is not
-    assert np.median(ols_bias / (ols.std(axis=0) / np.sqrt(60))) > 10
-    assert np.median(iv_bias / (iv.std(axis=0) / np.sqrt(60))) < 3
-    assert np.median(iv_bias) < 0.2 * np.median(ols_bias)
+    assert _bias_in_monte_carlo_se(ols, truth) > 10
+    assert _bias_in_monte_carlo_se(iv, truth) < 3
+    assert np.median(np.abs(iv.mean(axis=0) - truth)) < 0.2 * np.median(
+        np.abs(ols.mean(axis=0) - truth)
+    )
     np.testing.assert_allclose(np.median(iv_se, axis=0), iv.std(axis=0), rtol=0.35)
     assert (np.abs(iv - truth) <= 3 * iv_se).mean() > 0.95
     few = fit_schedule_with_errors(
@@ -174,13 +181,11 @@ def test_instruments_free_of_an_odd_even_error_keep_the_fit_consistent(design):
         paired_se.append(est.K_se.ravel())
     node, paired, paired_se = np.array(node), np.array(paired), np.array(paired_se)
     truth = K.ravel()
-    node_bias = np.abs(node.mean(axis=0) - truth)
-    paired_bias = np.abs(paired.mean(axis=0) - truth)
     # the node instruments' bias: many Monte Carlo standard errors and a quarter of K (the
     # error's size is the signal's); the means': none to speak of
-    assert np.median(node_bias / (node.std(axis=0) / np.sqrt(60))) > 5
+    assert _bias_in_monte_carlo_se(node, truth) > 5
     assert np.linalg.norm(node.mean(axis=0) - truth) > 0.15 * np.linalg.norm(truth)
-    assert np.median(paired_bias / (paired.std(axis=0) / np.sqrt(60))) < 3
+    assert _bias_in_monte_carlo_se(paired, truth) < 3
     assert np.linalg.norm(paired.mean(axis=0) - truth) < 0.05 * np.linalg.norm(truth)
     assert (np.abs(paired - truth) <= 3 * paired_se).mean() > 0.93
     with pytest.raises(ValueError, match=r"instrument_feedback: expected shape \(2000, 2\)"):
