@@ -110,8 +110,9 @@ def add_parser(sub: Any, default_url: str) -> None:
     p.add_argument(
         "--noise-model",
         action="store_true",
-        help="identify with the noise modelled (maximum a posteriori; biased on 2 links, see "
-        "docs/process-noise.md) instead of the exact-dynamics fit with sandwich errors",
+        help="identify with the noise modelled (maximum a posteriori, moved to the marginal "
+        "likelihood's optimum; see docs/process-noise.md) instead of the exact-dynamics fit "
+        "with sandwich errors",
     )
     p.add_argument(
         "--uncertainty",

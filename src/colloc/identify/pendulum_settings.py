@@ -70,13 +70,15 @@ class PendulumSettings:
     noise_model : bool
         True: identify with the simulated noise modelled, a disturbance torque per joint
         penalised by ``process_noise`` and the cart force a measured input tracked with
-        ``input_noise`` (the joint maximum a posteriori fit). False (default): exact
-        dynamics and the measured force taken as exact, the output-error fit, which stays
-        unbiased under motor noise independent of the cart force; with sandwich errors it
-        is the honest default. Measured by ``benchmarks/uncertainty_calibration.py`` (50
-        realisations): the MAP fit's gains were biased by 0.4 % (1 link) and 9.7 % (2
-        links, 81 % on one gain), the output-error fit's by 0.3 % and 1.1 %, within their
-        Monte Carlo noise (see ``docs/process-noise.md``).
+        ``input_noise`` (the maximum a posteriori fit, its gains then moved to the Laplace
+        marginal likelihood's optimum by :func:`colloc.marginal_correction`). False
+        (default): exact dynamics and the measured force taken as exact, the output-error
+        fit, which stays unbiased under motor noise independent of the cart force; with
+        sandwich errors it is the honest default. Measured by
+        ``benchmarks/uncertainty_calibration.py`` (50 realisations, 2 links, motor noise):
+        the joint MAP gains were biased by 9.7 % (81 % on one gain), the corrected ones by
+        1.8 %, the output-error fit's by 1.1 %; 99.8 % of the corrected gains within 3 SE,
+        their spread 0.7 times the output-error fit's (``docs/process-noise.md``).
     uncertainty : str
         ``"sandwich"`` (robust, the default) or ``"kkt"`` standard errors (see
         :func:`colloc.parameter_uncertainty`).
