@@ -78,7 +78,7 @@ class PendulumSettings:
         ``benchmarks/uncertainty_calibration.py`` (50 realisations, 2 links, motor noise):
         the joint MAP gains were biased by 9.7 % (81 % on one gain), the corrected ones by
         1.8 %, the output-error fit's by 1.1 %; 99.8 % of the corrected gains within 3 SE,
-        their spread 0.7 times the output-error fit's (``docs/process-noise.md``).
+        their spread about half the output-error fit's (``docs/process-noise.md``).
     uncertainty : str
         ``"sandwich"`` (robust, the default) or ``"kkt"`` standard errors (see
         :func:`colloc.parameter_uncertainty`).
