@@ -86,6 +86,8 @@ def test_bad_requests_are_refused_by_name():
     problem, solution = msd.fit(measured, True)
     with pytest.raises(ValueError, match="noise_variance: expected a number > 0"):
         marginal_correction(problem, solution, noise_variance=-1.0)
+    with pytest.raises(ValueError, match="noise_variance: expected a number > 0, found 'one'"):
+        marginal_correction(problem, solution, noise_variance="one")
     with pytest.raises(ValueError, match="max_iterations: expected a whole number >= 1"):
         marginal_correction(problem, solution, max_iterations=0)
     cut = dataclasses.replace(solution, z=solution.z[:-1])

@@ -27,6 +27,7 @@ parameters), repeated with the gradient at the corrected parameters until it set
 from __future__ import annotations
 
 from dataclasses import dataclass
+from numbers import Real
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -131,7 +132,12 @@ def marginal_correction(
         or max_iterations < 1
     ):
         problems.append(f"max_iterations: expected a whole number >= 1, found {max_iterations!r}")
-    if noise_variance is not None and not (np.isfinite(noise_variance) and noise_variance > 0):
+    if noise_variance is not None and not (
+        isinstance(noise_variance, Real)
+        and not isinstance(noise_variance, bool)
+        and np.isfinite(noise_variance)
+        and noise_variance > 0
+    ):
         problems.append(f"noise_variance: expected a number > 0, found {noise_variance!r}")
     if problems:
         raise ValueError("marginal_correction: " + "; ".join(problems))
