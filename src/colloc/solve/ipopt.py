@@ -152,7 +152,8 @@ def solve_nlp(
     # (stalled, crashed) cannot clean up after itself
     scratch = None
     if log_path is None:
-        scratch = tempfile.TemporaryDirectory(prefix="colloc-ipopt-")
+        sweep_scratch_folders()
+        scratch = tempfile.TemporaryDirectory(prefix=f"{SCRATCH_PREFIX}{os.getpid()}-")
         log_file = Path(scratch.name) / "ipopt.log"
     else:
         log_file = Path(log_path)
@@ -171,6 +172,48 @@ def solve_nlp(
     finally:
         if scratch is not None:
             scratch.cleanup()
+
+
+#: A solve's temporary log folder is named ``colloc-ipopt-<pid>-<random>`` after its process.
+SCRATCH_PREFIX = "colloc-ipopt-"
+
+
+def sweep_scratch_folders(root: str | os.PathLike[str] | None = None) -> list[Path]:
+    """Remove the temporary log folders of solves whose process is gone.
+
+    A process killed mid-solve (a Dask worker lost, ``SIGKILL``) cannot remove its folder,
+    and a killed solve's log can be large. Each folder names its process; one whose process
+    no longer exists is removed by the next solve. A folder of a live process, of another
+    user, or without a process id in its name is left alone.
+
+    Parameters
+    ----------
+    root : path, optional
+        Where the folders are; default the temporary directory.
+
+    Returns
+    -------
+    list of Path
+        The folders removed.
+    """
+    import shutil
+
+    if os.name != "posix":  # os.kill(pid, 0) asks about a process only on POSIX
+        return []
+    base = Path(tempfile.gettempdir() if root is None else root)
+    removed = []
+    for folder in base.glob(f"{SCRATCH_PREFIX}*-*"):
+        pid_text = folder.name[len(SCRATCH_PREFIX) :].split("-", 1)[0]
+        if not pid_text.isdigit() or not folder.is_dir() or folder.stat().st_uid != os.getuid():
+            continue
+        try:
+            os.kill(int(pid_text), 0)
+        except ProcessLookupError:
+            shutil.rmtree(folder, ignore_errors=True)
+            removed.append(folder)
+        except PermissionError:
+            continue  # a live process of someone else
+    return removed
 
 
 def _solve(
