@@ -277,6 +277,11 @@ class SmoothedGait:
         state["problem"] = None  # CasADi functions do not pickle
         return state
 
+    def _last_scheme(self) -> Scheme:
+        """The last stage's scheme (a result made before ``scheme`` was kept reads its
+        problem's)."""
+        return self.scheme if self.scheme is not None else self.problem.scheme
+
     def at_intervals(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Times, states and torques at the interval midpoints (averages of neighbouring
         nodes, which cancel the midpoint rule's odd-even mode in the node rates)."""
@@ -291,8 +296,7 @@ class SmoothedGait:
         """Times, states and torques where the last stage's scheme holds the dynamics: the
         nodes for a scheme whose nodes satisfy them (trapezoidal, Hermite-Simpson, Radau IIA),
         else the interval midpoints (:meth:`at_intervals`; the midpoint rule)."""
-        scheme = self.scheme if self.scheme is not None else self.problem.scheme
-        if scheme.dynamics_at_nodes:
+        if self._last_scheme().dynamics_at_nodes:
             return self.times, self.states, self.torques
         return self.at_intervals()
 
@@ -311,9 +315,8 @@ class SmoothedGait:
         -------
         ndarray, shape (N, 18)
         """
-        scheme = self.scheme if self.scheme is not None else self.problem.scheme
         out = self.states.copy()
-        if scheme.dynamics_at_nodes or out.shape[0] < 2:
+        if self._last_scheme().dynamics_at_nodes or out.shape[0] < 2:
             return out
         speeds = slice(out.shape[1] // 2, None)
         out[1:, speeds] = 0.5 * (self.states[1:, speeds] + self.states[:-1, speeds])

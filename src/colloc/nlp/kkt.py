@@ -51,6 +51,27 @@ def constraint_jacobian(design: Trials, z: np.ndarray) -> sp.csc_matrix:
     return sp.coo_matrix((nlp.jacobian(z), (jr, jc)), shape=(nlp.m, nlp.n)).tocsc()
 
 
+def states_kkt(H: sp.spmatrix, C: sp.spmatrix, p0: int) -> sp.csc_matrix:
+    """``K_s = [[H_ss, C_s^T], [C_s, 0]]``: the KKT matrix of the free variables before the
+    parameters (the first ``p0``) and the constraints.
+
+    Parameters
+    ----------
+    H : sparse matrix, shape (n, n)
+        The full symmetric Hessian.
+    C : sparse matrix, shape (m, n)
+        The constraints' Jacobian.
+    p0 : int
+        Where the parameters start in the free vector.
+
+    Returns
+    -------
+    scipy.sparse.csc_matrix
+    """
+    Cs = C[:, :p0]
+    return sp.bmat([[H[:p0, :p0], Cs.T], [Cs, None]], format="csc")
+
+
 class ReducedKKT:
     """The KKT matrix ``K = [[H, C^T], [C, 0]]`` at ``z``, with the parameters eliminated.
 
@@ -79,9 +100,9 @@ class ReducedKKT:
         p0 = design.parameter_offset
         H = hessian_matrix(design, hessian)
         C = constraint_jacobian(design, z)
-        Hss, Hsp, Hpp = H[:p0, :p0], H[:p0, p0:], H[p0:, p0:].toarray()
-        Cs, Cp = C[:, :p0], C[:, p0:]
-        Ks = sp.bmat([[Hss, Cs.T], [Cs, None]], format="csc")
+        Hsp, Hpp = H[:p0, p0:], H[p0:, p0:].toarray()
+        Cp = C[:, p0:]
+        Ks = states_kkt(H, C, p0)
         self.p0 = p0
         B = sp.vstack([Hsp, Cp]).toarray()
         try:

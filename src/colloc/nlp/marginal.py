@@ -36,8 +36,8 @@ import scipy.sparse.linalg as spla
 import sympy as sm
 
 from colloc.model.symbols import name_of
-from colloc.nlp.kkt import ReducedKKT, constraint_jacobian, hessian_matrix
-from colloc.nlp.trials import Trials, TrialsSolution
+from colloc.nlp.kkt import ReducedKKT, constraint_jacobian, hessian_matrix, states_kkt
+from colloc.nlp.trials import Trials, TrialsSolution, as_trials
 from colloc.nlp.uncertainty import parameter_uncertainty
 
 if TYPE_CHECKING:
@@ -111,14 +111,9 @@ def marginal_correction(
         When the problem has no noise model, constraints other than the defects, the
         solve did not converge, or the KKT matrix is singular.
     """
-    design = problem if isinstance(problem, Trials) else Trials([problem])
+    design = as_trials(problem, solution)
     z = np.asarray(solution.z, dtype=float)
     problems = []
-    if z.shape != (design.num_variables,):
-        problems.append(
-            f"solution: its free vector has shape {z.shape}, the problem's "
-            f"({design.num_variables},): not a solve of this problem"
-        )
     if not solution.status.success:
         problems.append("solution: the solve did not converge; there is no optimum to correct")
     if not any(p.process_noise or p.measured_inputs for p in design.problems):
@@ -214,9 +209,7 @@ def _log_det_latent(design: Trials, z: np.ndarray, dependent: np.ndarray) -> flo
     p0 = design.parameter_offset
     H = hessian_matrix(design, design.nlp.gauss_newton_hessian(z))
     C = constraint_jacobian(design, z)
-    Cs = C[:, :p0]
-    Ks = sp.bmat([[H[:p0, :p0], Cs.T], [Cs, None]], format="csc")
-    return _log_abs_det(Ks) - 2.0 * _log_abs_det(C[:, dependent])
+    return _log_abs_det(states_kkt(H, C, p0)) - 2.0 * _log_abs_det(C[:, dependent])
 
 
 def _log_abs_det(matrix: sp.spmatrix) -> float:

@@ -406,3 +406,36 @@ class TrialsSolution:
             f"iterations={self.stats['iterations']}, objective={self.stats['objective']:.6g}, "
             f"unknown parameters={len(self.unknown_parameters)})"
         )
+
+
+def as_trials(
+    problem: Problem | Trials, solution: Solution | TrialsSolution | None = None
+) -> Trials:
+    """The design as trials (a single problem is one trial), checked against ``solution``.
+
+    Parameters
+    ----------
+    problem : Problem or Trials
+    solution : Solution or TrialsSolution, optional
+
+    Returns
+    -------
+    Trials
+
+    Raises
+    ------
+    ValueError
+        When a single problem has no unknown parameters, or ``solution``'s free vector is
+        not of this design's length.
+    """
+    if not isinstance(problem, Trials) and not problem.partition.unknown_parameters:
+        raise ValueError("problem: has no unknown parameters, so there is nothing to estimate")
+    design = problem if isinstance(problem, Trials) else Trials([problem])
+    if solution is not None:
+        z = np.asarray(solution.z)
+        if z.shape != (design.num_variables,):
+            raise ValueError(
+                f"solution: its free vector has shape {z.shape}, the problem's "
+                f"({design.num_variables},): not a solve of this problem"
+            )
+    return design

@@ -32,7 +32,7 @@ import sympy as sm
 from colloc.model.symbols import name_of
 from colloc.nlp.kkt import ReducedKKT
 from colloc.nlp.residuals import SignalResiduals, signal_columns, tracking_residuals
-from colloc.nlp.trials import Trials, TrialsSolution
+from colloc.nlp.trials import Trials, TrialsSolution, as_trials
 
 if TYPE_CHECKING:
     from colloc.nlp.problem import Problem
@@ -206,28 +206,11 @@ def parameter_uncertainty(
         :data:`DISCRETISATION_RTOL` of its value): refine the grid or take a higher-order
         scheme before reading the error bar.
     """
-    design = _as_trials(problem, solution)
+    design = as_trials(problem, solution)
     result = _uncertainty(design, solution, num_measurements, method, blocks, per_output)
     if not discretisation:
         return result
     return _with_discretisation(design, solution, result)
-
-
-def _as_trials(
-    problem: Problem | Trials, solution: Solution | TrialsSolution | None = None
-) -> Trials:
-    """The design as trials (a single problem is one trial), checked against ``solution``."""
-    if not isinstance(problem, Trials) and not problem.partition.unknown_parameters:
-        raise ValueError("problem: has no unknown parameters, so there is nothing to estimate")
-    design = problem if isinstance(problem, Trials) else Trials([problem])
-    if solution is not None:
-        z = np.asarray(solution.z)
-        if z.shape != (design.num_variables,):
-            raise ValueError(
-                f"solution: its free vector has shape {z.shape}, the problem's "
-                f"({design.num_variables},): not a solve of this problem"
-            )
-    return design
 
 
 def _trial_residuals(design: Trials, z: np.ndarray) -> tuple[list[SignalResiduals], list[int]]:
@@ -607,7 +590,7 @@ def cramer_rao_bound(
     """
     if not isinstance(problem, Trials) and not problem.partition.unknown_parameters:
         raise ValueError("problem: has no unknown parameters, so there is nothing to bound")
-    design = _as_trials(problem)
+    design = as_trials(problem)
     nlp = design.nlp
     z = np.asarray(z, dtype=float)
     if z.shape != (nlp.n,):
@@ -770,7 +753,7 @@ def influence_trace(
     -------
     float
     """
-    design = _as_trials(problem)
+    design = as_trials(problem)
     values = design.nlp.gauss_newton_hessian(z) if hessian is None else hessian
     residuals, _ = _trial_residuals(design, z)
     slopes = _signal_slopes(design, z)

@@ -8,6 +8,7 @@ CasADi ``Callback`` inside ``nlpsol`` would route the same arrays through more l
 from __future__ import annotations
 
 import os
+import shutil
 import tempfile
 import time
 from collections.abc import Callable, Mapping
@@ -196,8 +197,6 @@ def sweep_scratch_folders(root: str | os.PathLike[str] | None = None) -> list[Pa
     list of Path
         The folders removed.
     """
-    import shutil
-
     if os.name != "posix":  # os.kill(pid, 0) asks about a process only on POSIX
         return []
     base = Path(tempfile.gettempdir() if root is None else root)
