@@ -86,7 +86,10 @@ def run_cli(argv, capsys):
         (["--seed", "-1"], r"seed: expected an integer >= 0, found -1"),
         (["--process-noise", "-1"], r"process_noise: expected a finite number >= 0, found -1.0"),
         (["--input-noise", "nan"], r"input_noise: expected a finite number >= 0, found nan"),
-        (["--uncertainty", "bogus"], r"uncertainty: expected one of \['sandwich', 'kkt'\]"),
+        (
+            ["--uncertainty", "bogus"],
+            r"uncertainty: expected one of \['sandwich', 'autoregressive', 'kkt'\]",
+        ),
         # issue 13: refused only after simulating, about a window the user cannot set
         (["-d", "0.1"], r"duration \(-d\): 0.1 s at 100 Hz gives 11 samples, fewer than the 15 "),
         # issue 13: a NumPy MemoryError, or no end and no word

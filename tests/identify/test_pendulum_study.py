@@ -169,7 +169,10 @@ def test_limited_memory_hessian_reaches_the_exact_hessians_optimum(runs):
         ({"seed": -1}, r"seed: expected an integer >= 0, found -1"),
         ({"process_noise": -1.0}, r"process_noise: expected a finite number >= 0, found -1.0"),
         ({"input_noise": float("nan")}, r"input_noise: expected a finite number >= 0, found nan"),
-        ({"uncertainty": "bootstrap"}, r"uncertainty: expected one of \['sandwich', 'kkt'\]"),
+        (
+            {"uncertainty": "bootstrap"},
+            r"uncertainty: expected one of \['sandwich', 'autoregressive', 'kkt'\]",
+        ),
         ({"noise_model": "yes"}, r"noise_model: expected True or False, found 'yes'"),
     ],
 )

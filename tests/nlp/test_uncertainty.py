@@ -407,18 +407,21 @@ def _decay(num_nodes, correlated=False):
 
 
 def test_the_default_chooses_the_honest_method_and_says_why():
-    """Without a noise model the default is the sandwich (KKT errors were 3-12 times too small
-    on the gallery's problems); with too few nodes for blocks, or per_output, the KKT form.
-    The choice and its grounds are on the result."""
+    """Without a noise model the default is robust (KKT errors were 3-12 times too small on
+    the gallery's problems): the autoregressive errors on a uniform grid; with too few nodes,
+    or per_output, the KKT form. The choice and its grounds are on the result."""
     problem, solution, a = _decay(301, correlated=True)
     chosen = parameter_uncertainty(problem, solution)
-    assert chosen.method == "sandwich" and "noise is not modelled" in chosen.reason
+    assert chosen.method == "autoregressive" and "noise is not modelled" in chosen.reason
+    asked = parameter_uncertainty(problem, solution, method="autoregressive")
+    assert chosen.standard_errors[a] == asked.standard_errors[a]
+    assert asked.reason == "asked for"
     sandwich = parameter_uncertainty(problem, solution, method="sandwich")
-    assert chosen.standard_errors[a] == sandwich.standard_errors[a]
     assert sandwich.reason == "asked for"
     kkt = parameter_uncertainty(problem, solution, method="kkt")
     # random-walk residuals: the KKT form, which takes them as white, is far too small
     assert kkt.standard_errors[a] < 0.5 * sandwich.standard_errors[a]
+    assert kkt.standard_errors[a] < 0.5 * asked.standard_errors[a]
     per_output = parameter_uncertainty(problem, solution, per_output=True)
     assert per_output.method == "kkt per output" and "per_output" in per_output.reason
     short_problem, short_solution, _ = _decay(15)

@@ -14,7 +14,7 @@ import numpy as np
 from colloc.identify.guesses import GAIN_GUESSES
 
 #: The standard-error methods of :func:`colloc.parameter_uncertainty`, honest one first.
-UNCERTAINTY_METHODS = ("sandwich", "kkt")
+UNCERTAINTY_METHODS = ("sandwich", "autoregressive", "kkt")
 
 SCHEME_NAMES = ("midpoint", "backward-euler", "trapezoidal", "hermite-simpson")
 """Command-line names of the collocation schemes, in the order ``--help`` lists them."""
@@ -80,8 +80,9 @@ class PendulumSettings:
         1.8 %, the output-error fit's by 1.1 %; 99.8 % of the corrected gains within 3 SE,
         their spread about half the output-error fit's (``docs/process-noise.md``).
     uncertainty : str
-        ``"sandwich"`` (robust, the default) or ``"kkt"`` standard errors (see
-        :func:`colloc.parameter_uncertainty`).
+        ``"sandwich"`` (robust over time blocks, the default, calibrated on this study),
+        ``"autoregressive"`` (robust, the residuals' covariance from an autoregression) or
+        ``"kkt"`` standard errors (see :func:`colloc.parameter_uncertainty`).
     """
 
     num_links: int = 1

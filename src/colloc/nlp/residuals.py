@@ -326,8 +326,8 @@ def residual_diagnostics(
             warnings.append(
                 f"{s.name}: residuals are not white (lag-1 autocorrelation "
                 f"{d.autocorrelation:.2f}); the model misses a disturbance or the noise is "
-                "coloured, so KKT standard errors are too small: use the sandwich ones or model "
-                "process noise"
+                "coloured, so KKT standard errors are too small: use the robust ones "
+                "(autoregressive or sandwich) or model process noise"
             )
         elif d.autocorrelation < CORRELATION_LIMITS[0]:
             warnings.append(

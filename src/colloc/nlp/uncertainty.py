@@ -30,8 +30,10 @@ import scipy.sparse.linalg as spla
 import sympy as sm
 
 from colloc.model.symbols import name_of
+from colloc.nlp.autocorrelated import autoregressive_covariance, autoregressive_obstacle
 from colloc.nlp.kkt import ReducedKKT
-from colloc.nlp.residuals import SignalResiduals, signal_columns, tracking_residuals
+from colloc.nlp.residuals import SignalResiduals
+from colloc.nlp.scores import per_sample, signal_slopes, trial_residuals
 from colloc.nlp.trials import Trials, TrialsSolution, as_trials
 
 if TYPE_CHECKING:
@@ -40,7 +42,7 @@ if TYPE_CHECKING:
 
 
 #: The methods of :func:`parameter_uncertainty`.
-METHODS = ("auto", "kkt", "sandwich")
+METHODS = ("auto", "kkt", "sandwich", "autoregressive")
 
 #: Fewest nodes for ``method="auto"`` to take the sandwich (five blocks of five nodes).
 AUTO_SANDWICH_MIN_NODES = 25
@@ -64,8 +66,9 @@ class ParameterUncertainty:
         ``num_measurements - num_free``; with priors the tracked samples less
         ``effective_parameters``; None for a bound (no residuals were used).
     method : str
-        ``"kkt"`` (the noise model taken as right), ``"sandwich"`` (robust to a wrong one)
-        or ``"cramer-rao"`` (a bound at a chosen point).
+        ``"kkt"`` (the noise model taken as right), ``"sandwich"`` (robust to a wrong one,
+        over time blocks), ``"autoregressive"`` (robust, the residuals' covariance from an
+        autoregression per trial) or ``"cramer-rao"`` (a bound at a chosen point).
     blocks : int or None
         Number of time blocks of the sandwich estimate.
     reason : str
@@ -86,6 +89,8 @@ class ParameterUncertainty:
         samples' influence matrix (:func:`influence_trace`), the quantities the data
         determine; ``noise_variance`` is then the tracked residuals' ``sum w r^2`` over
         ``degrees_of_freedom = n_y - effective_parameters``. None without priors.
+    orders : tuple of int
+        ``"autoregressive"``: each trial's autoregression order; empty otherwise.
     """
 
     parameters: tuple[sm.Symbol, ...]
@@ -100,6 +105,7 @@ class ParameterUncertainty:
     discretisation_errors: dict[sm.Symbol, float] = dataclasses.field(default_factory=dict)
     discretisation_note: str = ""
     effective_parameters: float | None = None
+    orders: tuple[int, ...] = ()
 
 
 class DiscretisationWarning(UserWarning):
@@ -135,6 +141,12 @@ def parameter_uncertainty(
     gradient of block ``b``'s residuals). It stays honest when the noise levels are wrong
     or the residuals are correlated within a block (process noise left out, coloured
     noise); it needs many blocks longer than the residuals' correlation time.
+    ``method="autoregressive"`` takes the same response but the residuals' covariance from a
+    vector autoregression of each trial's tracked signals, fitted with the part of the noise
+    the fit absorbs added back (:mod:`colloc.nlp.autocorrelated`): it carries the
+    correlation to every lag, so it stays honest when the residuals ring for a sizeable part
+    of a trial, where no block is both long enough and one of many. It needs every tracked
+    signal sampled at every node of a uniform grid.
 
     Several trials sharing the parameters (:class:`colloc.Trials`) are one estimate: their
     residuals are independent between trials, so the sandwich's blocks never straddle two
@@ -150,13 +162,16 @@ def parameter_uncertainty(
         Number of measured samples in the objective; by default counted from the problem's
         least-squares terms (samples with a positive weight, including the process-noise
         penalty's zero pseudo-measurements, whose disturbances are free quantities).
-    method : {"auto", "kkt", "sandwich"}
+    method : {"auto", "kkt", "sandwich", "autoregressive"}
         ``"auto"`` (default) chooses, and says why in ``reason``: the KKT form when the noise
         is modelled (``process_noise`` or ``measured_inputs``) and the tracked residuals are
         white (lag-1 autocorrelation within ``3 / sqrt(n)``), or with ``per_output``, or with
-        fewer than :data:`AUTO_SANDWICH_MIN_NODES` nodes; the sandwich otherwise. On the
-        gallery's problems the KKT errors of a fit without a noise model were 3-12 times too
-        small (20-57 % of the parameters within 3 SE).
+        fewer than :data:`AUTO_SANDWICH_MIN_NODES` nodes; otherwise the autoregressive
+        errors where the sampling allows them and ``blocks`` is not given, else the sandwich
+        over blocks. On the gallery's problems the KKT errors of a fit without a noise model
+        were 3-12 times too small (20-57 % of the parameters within 3 SE); on four trials of
+        a ringing plant with an unmodelled disturbance the blocks' errors were 2-3 times too
+        small, the autoregressive ones about right (``docs/process-noise.md``).
     blocks : int or sequence, optional
         Sandwich only: the number of equal time blocks, or the first node of each block
         (e.g. each stride's heel strike). Default ``round(sqrt(N))`` blocks. With
@@ -192,7 +207,8 @@ def parameter_uncertainty(
     ValueError
         When there are no unknown parameters, no more measurements than free quantities,
         the KKT matrix is singular (unidentifiable parameters), ``method`` or ``blocks`` is
-        not one of the accepted values, the blocks would leave a parameter only one block (a
+        not one of the accepted values, ``method="autoregressive"`` meets data it cannot
+        model (a non-uniform grid, samples left out, fewer than 25 per trial), the blocks would leave a parameter only one block (a
         trial's own parameter in a one-block trial), or ``solution`` is not a solve of
         ``problem`` (another free vector's length).
 
@@ -211,18 +227,6 @@ def parameter_uncertainty(
     if not discretisation:
         return result
     return _with_discretisation(design, solution, result)
-
-
-def _trial_residuals(design: Trials, z: np.ndarray) -> tuple[list[SignalResiduals], list[int]]:
-    """Every trial's least-squares signals at the whole ``z`` (trial by trial), and the
-    trial each belongs to."""
-    signals: list[SignalResiduals] = []
-    owners: list[int] = []
-    for k, (p, zk) in enumerate(zip(design.problems, design.split(z), strict=True)):
-        mine = tracking_residuals(p, zk)
-        signals += mine
-        owners += [k] * len(mine)
-    return signals, owners
 
 
 def _uncertainty(
@@ -246,12 +250,21 @@ def _uncertainty(
     reason = "asked for"
     priors = any(p.process_noise or p.measured_inputs for p in design.problems)
     needed = method != "kkt" or priors or per_output
-    residuals, owners = _trial_residuals(design, solution.z) if needed else (None, [])
+    residuals, owners = trial_residuals(design, solution.z) if needed else (None, [])
     if method == "auto":
         assert residuals is not None
-        method, reason = _choose_method(design, residuals, owners, per_output)
+        method, reason = _choose_method(design, residuals, owners, per_output, blocks)
+    if method == "autoregressive":
+        assert residuals is not None
+        obstacle = autoregressive_obstacle(design, residuals, owners)
+        if obstacle:
+            raise ValueError(
+                f"method: 'autoregressive' models each trial's tracked residuals as one series "
+                f"on a uniform grid, but {obstacle}; use method='sandwich'"
+            )
+        if per_output:
+            raise ValueError("per_output: only for method='kkt' (the autoregression needs none)")
     nlp = design.nlp
-    q = len(design.unknown_parameters)
     starts = _trial_block_starts(blocks, design) if method == "sandwich" else None
     if starts is not None:
         _check_blocks_per_parameter(design, starts)
@@ -269,13 +282,36 @@ def _uncertainty(
     sigma2 = float(solution.stats["objective"]) / dof
     effective = None
     # each least-squares signal's residual gradients, for the priors' and per-output shares
-    slopes = _signal_slopes(design, solution.z) if priors or per_output else []
+    slopes = (
+        signal_slopes(design, solution.z)
+        if priors or per_output or method == "autoregressive"
+        else []
+    )
     if priors:
         # the disturbances' (and measured inputs') priors shrink them: they use up fewer
         # degrees of freedom than they count, so the noise is read from the tracked
         # residuals over their effective degrees of freedom
         assert residuals is not None
         sigma2, effective, dof = _effective_variance(design, solution.z, hessian, residuals, slopes)
+    if method == "autoregressive":
+        assert residuals is not None
+        try:
+            cov, orders = autoregressive_covariance(
+                design, solution.z, hessian, kkt, residuals, owners, slopes
+            )
+        except ValueError as exc:
+            if reason == "asked for":
+                raise ValueError(
+                    f"method: 'autoregressive' cannot model these residuals ({exc}); use "
+                    "method='sandwich'"
+                ) from exc
+            reason = f"{reason}; but {exc}, so the sandwich over time blocks instead"
+            starts = _trial_block_starts(blocks, design)
+            _check_blocks_per_parameter(design, starts)
+        else:
+            cov += _prior_share(design, kkt, residuals, slopes, sigma2)
+            result = _result(design, cov, sigma2, dof, "autoregressive", None, reason, effective)
+            return _mark_bounds(solution, dataclasses.replace(result, orders=orders))
     if starts is None and per_output:
         assert residuals is not None
         cov = _per_output_covariance(design, kkt, dof / num_measurements, residuals, slopes)
@@ -292,7 +328,6 @@ def _uncertainty(
         raise ValueError("per_output: only for method='kkt' (the sandwich needs no variances)")
     G = _block_gradients(design, solution.z, starts)
     assert residuals is not None  # computed above for the sandwich
-    cov = np.zeros((q, q))
     first = np.concatenate([[0], np.cumsum([s.size for s in starts])])
     nb = int(first[-1])
     # (no slopes without priors: then nothing below is a prior's)
@@ -301,27 +336,51 @@ def _uncertainty(
             continue
         # a disturbance (or a group's whitened combination) or a measured input's
         # correction: its residuals are shrunk by the fit, so its share is taken from the
-        # noise model (sum_k sigma^2 / w_k s_k s_k^T, s_k = 2 w_k grad r_k) rather than from
-        # the residuals, and its gradient (s_k r_k) is taken out of the blocks'
+        # noise model (_prior_share) rather than from the residuals, and its gradient
+        # (s_k r_k) is taken out of the blocks'
         used = prior.weights > 0
         r = np.where(used, prior.residuals, 0.0)
         nodes = np.arange(r.size)
         block = first[owner] + np.searchsorted(starts[owner], nodes, side="right") - 1
         in_block = sp.coo_matrix((np.ones(r.size), (nodes, block)), shape=(r.size, nb))
-        G = G - (_per_sample(rows, slope * r[:, None], n) @ in_block).tocsc()
-        root = np.where(used, np.sqrt(sigma2 / np.where(used, prior.weights, 1.0)), 0.0)
-        Y = kkt.parameter_rows(_per_sample(rows, slope * root[:, None], n))
-        cov += Y @ Y.T
+        G = G - (per_sample(rows, slope * r[:, None], n) @ in_block).tocsc()
     U = kkt.parameter_rows(G)
-    cov += nb / (nb - 1) * (U @ U.T)
+    cov = _prior_share(design, kkt, residuals, slopes, sigma2) + nb / (nb - 1) * (U @ U.T)
     return _mark_bounds(
         solution,
         _result(design, 0.5 * (cov + cov.T), sigma2, dof, "sandwich", nb, reason, effective),
     )
 
 
+def _prior_share(
+    design: Trials,
+    kkt: ReducedKKT,
+    residuals: Sequence[SignalResiduals],
+    slopes: Sequence[tuple[np.ndarray, np.ndarray]],
+    sigma2: float,
+) -> np.ndarray:
+    """The priors' share of the robust covariances, from the noise model:
+    ``sum_k sigma^2 / w_k Y_k Y_k^T``, ``Y_k = [K^-1]_p,: 2 w_k grad r_k``, over every sample
+    of a disturbance or measured input (their residuals are shrunk by the fit, so they say
+    little of the noise). Zero without priors."""
+    q = len(design.unknown_parameters)
+    cov = np.zeros((q, q))
+    for prior, (rows, slope) in zip(residuals, slopes, strict=False):
+        if prior.kind == "tracking":
+            continue
+        used = prior.weights > 0
+        root = np.where(used, np.sqrt(sigma2 / np.where(used, prior.weights, 1.0)), 0.0)
+        Y = kkt.parameter_rows(per_sample(rows, slope * root[:, None], design.nlp.n))
+        cov += Y @ Y.T
+    return cov
+
+
 def _choose_method(
-    design: Trials, residuals: Sequence[SignalResiduals], owners: Sequence[int], per_output: bool
+    design: Trials,
+    residuals: Sequence[SignalResiduals],
+    owners: Sequence[int],
+    per_output: bool,
+    blocks: object = None,
 ) -> tuple[str, str]:
     """``method="auto"``: the method, and why, from the residuals at the solution."""
     if per_output:
@@ -343,18 +402,32 @@ def _choose_method(
                 f"the noise is modelled ({', '.join(modelled)}) and the tracked residuals are "
                 f"white (lag-1 autocorrelation {worst:.2f} <= {limit:.2f})"
             )
-        return "sandwich", (
+        why = (
             f"the noise is modelled ({', '.join(modelled)}) but the tracked residuals are "
             f"correlated (lag-1 autocorrelation {worst:.2f} > {limit:.2f})"
         )
-    if N < AUTO_SANDWICH_MIN_NODES:
+    elif N < AUTO_SANDWICH_MIN_NODES:
         return "kkt", (
             f"{N} nodes are too few for the sandwich's blocks (at least "
             f"{AUTO_SANDWICH_MIN_NODES}); the KKT errors take the noise model as right"
         )
-    return "sandwich", (
-        "the noise is not modelled: the sandwich over time blocks stays right when the weights "
-        "or the noise model are wrong or the residuals correlated"
+    else:
+        why = "the noise is not modelled"
+    if blocks is not None:
+        return "sandwich", (
+            f"{why}: the sandwich over the given time blocks stays right when the weights or "
+            "the noise model are wrong or the residuals correlated within a block"
+        )
+    obstacle = autoregressive_obstacle(design, residuals, owners)
+    if obstacle:
+        return "sandwich", (
+            f"{why}: the sandwich over time blocks stays right when the weights or the noise "
+            "model are wrong or the residuals correlated within a block (the autoregressive "
+            f"errors cannot be had: {obstacle})"
+        )
+    return "autoregressive", (
+        f"{why}: the residuals' covariance from an autoregression per trial stays right when "
+        "the weights or the noise model are wrong or the residuals correlated, however long"
     )
 
 
@@ -388,7 +461,7 @@ def _per_output_covariance(
                 mismatched.append(f"{signal.name} ({variance:.3g})")
         # sample k's residual has variance v_k = variance / w_k
         root = np.where(used, np.sqrt(variance / np.where(used, w, 1.0)), 0.0)
-        U = kkt.parameter_rows(_per_sample(rows, slope * root[:, None], design.nlp.n))
+        U = kkt.parameter_rows(per_sample(rows, slope * root[:, None], design.nlp.n))
         cov += U @ U.T
     if mismatched:
         # the fit itself weighed the priors against data in other units: no covariance of
@@ -495,34 +568,6 @@ def _block_starts(
     if starts[-1] >= N:
         raise ValueError(f"{name}: first node {int(starts[-1])} is beyond the {N} nodes")
     return starts
-
-
-def _signal_slopes(design: Trials, z: np.ndarray) -> list[tuple[np.ndarray, np.ndarray]]:
-    """Per least-squares signal (in :func:`_trial_residuals`' order): the whole free
-    vector's index of each entry and, per node, ``2 w_k grad r_k`` at those entries
-    ((count, width)), with the signal's own weights and its term's quadrature factors."""
-    out = []
-    for problem, zk, index in zip(design.problems, design.split(z), design.index, strict=True):
-        p = problem.nlp.objective_placement
-        if p is None:
-            continue  # a trial without least squares has no signals
-        local = p.gather(zk)
-        for cols in signal_columns(problem):
-            # d/dz [w (y - d)^2 - w (y - d - 1)^2] = 2 w grad y
-            data = cols.alone(p.data)
-            g0 = p.mapped.jacobian(local, data)
-            data[:, cols.measurement] += 1.0
-            slope = (g0 - p.mapped.jacobian(local, data)).reshape(p.count, -1)
-            out.append((index[p.jac_cols], slope))
-    return out
-
-
-def _per_sample(rows: np.ndarray, values: np.ndarray, n: int) -> sp.csc_matrix:
-    """``(n, count)``: column ``k`` holds node ``k``'s ``values`` at the free-vector ``rows``
-    (the objective placement's Jacobian columns)."""
-    count = values.shape[0]
-    items = np.repeat(np.arange(count), values.shape[1])
-    return sp.coo_matrix((values.ravel(), (rows, items)), shape=(n, count)).tocsc()
 
 
 def _block_gradients(design: Trials, z: np.ndarray, starts: list[np.ndarray]) -> sp.csc_matrix:
@@ -755,8 +800,8 @@ def influence_trace(
     """
     design = as_trials(problem)
     values = design.nlp.gauss_newton_hessian(z) if hessian is None else hessian
-    residuals, _ = _trial_residuals(design, z)
-    slopes = _signal_slopes(design, z)
+    residuals, _ = trial_residuals(design, z)
+    slopes = signal_slopes(design, z)
     return _influence_trace(design, z, values, residuals, slopes, probes, seed)
 
 
@@ -789,7 +834,7 @@ def _influence_trace(
         if signal.kind == "tracking":
             used = np.flatnonzero(signal.weights > 0)
             scale = 1.0 / np.sqrt(2.0 * signal.weights[used])
-            columns.append(_per_sample(rows, slope, n)[:, used] @ sp.diags(scale))
+            columns.append(per_sample(rows, slope, n)[:, used] @ sp.diags(scale))
     S = sp.hstack(columns).tocsc()
     if S.shape[1] <= probes:
         block = S.toarray()
