@@ -82,21 +82,22 @@ def test_the_projection_correction_undoes_the_fit_s_loss():
         # each (probes, N, 1)
         return [e - np.einsum("ij,pjk->pik", Q @ Q.T, e) for e in noise]
 
+    variance = 1 / (1 - phi**2)
     truth = VectorAutoregression(
-        np.array([[[phi]]]),
-        np.array([[1.0]]),
-        np.array([[[1 / (1 - phi**2)]], [[phi / (1 - phi**2)]]]),
+        np.array([[[phi]]]), np.array([[1.0]]), np.array([[[variance]], [[phi * variance]]])
     )
     raw, corrected = [], []
-    for _ in range(12):
+    for seed in range(30):
         (r,) = respond([truth.simulate(N, 1, rng)])
-        r = r[0]
-        raw.append(sample_autocovariances(r, 1)[0, 0, 0])
-        (model,) = fit_through_projection([r], respond, rng, orders=[1], probes=10)
+        raw.append(sample_autocovariances(r[0], 1)[0, 0, 0])
+        (model,) = fit_through_projection([r[0]], respond, np.random.default_rng(seed), orders=[1])
         corrected.append(model.autocovariances(1)[0, 0, 0])
-    variance = 1 / (1 - phi**2)
-    assert np.mean(raw) < 0.8 * variance  # the loss is real
-    assert abs(np.mean(corrected) - variance) < 0.5 * abs(np.mean(raw) - variance)
+    # measured: raw median 0.57 of the truth, corrected 0.87 (the mean 0.99; a few records
+    # whose slow part the fit took almost whole are corrected far up)
+    assert np.median(raw) < 0.7 * variance  # the loss is real
+    gap = abs(np.median(raw) - variance)
+    assert abs(np.median(corrected) - variance) < 0.4 * gap
+    assert abs(np.mean(corrected) - variance) < 0.4 * gap
 
 
 def test_default_order():

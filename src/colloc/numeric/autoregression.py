@@ -183,9 +183,9 @@ def fit_through_projection(
     respond: Callable[[list[np.ndarray]], list[np.ndarray]],
     rng: np.random.Generator,
     orders: Sequence[int] | None = None,
-    iterations: int = 12,
+    iterations: int = 20,
     probes: int = 20,
-    tolerance: float = 0.02,
+    tolerance: float = 0.001,
 ) -> list[VectorAutoregression]:
     """Autoregressions of the noise behind fitted residuals, whose fit absorbed part of it.
 
@@ -227,9 +227,13 @@ def fit_through_projection(
         orders = [default_order(r.shape[0]) for r in residuals]
     observed = [sample_autocovariances(r, p) for r, p in zip(residuals, orders, strict=True)]
     models = [yule_walker(g) for g in observed]
+    # the same random numbers in every iteration: the map is then one deterministic function,
+    # whose fixed point the iteration approaches instead of wandering with fresh draws
+    common = int(rng.integers(2**63))
     for _ in range(iterations):
+        draws = np.random.default_rng(common)
         noise = [
-            model.simulate(r.shape[0], probes, rng)
+            model.simulate(r.shape[0], probes, draws)
             for model, r in zip(models, residuals, strict=True)
         ]
         left = respond(noise)
