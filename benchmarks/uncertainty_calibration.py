@@ -15,7 +15,9 @@ and the fraction of estimates within 2 and 3 standard errors.
 Every fit is one run of a ``colloc.batch`` batch (Dask, one worker per core), stored in an
 SQLite file beside the JSON, so an interrupted or extended calibration (more realisations)
 re-uses the fits already made. The robust row is its own run: the exact fit again, with
-sandwich standard errors (the pendulum study's default).
+sandwich standard errors (the pendulum study's default); the row "autoregressive" is the
+exact fit with the library's default errors without a noise model
+(``method="autoregressive"``).
 
 The case ``bound`` (its own JSON, ``..._bound.json``) is a mass-spring-damper whose damping's
 truth sits on its bound ``c >= 0``, posed with the library's defaults: how many realisations end
@@ -27,9 +29,9 @@ trials sharing parameters (``colloc.Trials``): the four trials of
 ``docs/examples/shared_trials.py`` (their own lengths, rates, forces, starts and sensor
 offsets; damping and stiffness shared) with a disturbance force added (an unmodelled smooth
 one, or motor noise), so that the residuals are correlated within a trial. Per parameter:
-coverage of the library's default errors (the sandwich, blocks inside trials), of the KKT
-errors, of the sandwich with two blocks per trial, and (motor noise) of the MAP fit that
-models the noise.
+coverage of the library's default errors (the autoregressive ones), of the KKT errors, of
+the sandwich over its default blocks inside trials and with two blocks per trial, and
+(motor noise) of the MAP fit that models the noise.
 
 Usage: python benchmarks/uncertainty_calibration.py [--links 1 2]
        [--cases a b c bound trials-slow trials-motor]
@@ -53,6 +55,7 @@ METHODS = {
     "today": {"noise_model": False, "uncertainty": "kkt"},
     "new": {"noise_model": True, "uncertainty": "sandwich"},
     "robust": {"noise_model": False, "uncertainty": "sandwich"},
+    "autoregressive": {"noise_model": False, "uncertainty": "autoregressive"},
 }
 #: Rows of the summary: the two methods, and today's fit with sandwich standard errors.
 ROWS = tuple(METHODS)
@@ -237,8 +240,8 @@ def trials_case(realisations: int, disturbance: str, seed0: int = 0) -> dict[str
     example's four trials (Hermite-Simpson, position noise 2 mm) with a disturbance
     (:data:`TRIAL_DISTURBANCES`), fitted with exact dynamics and errors by
     ``parameter_uncertainty`` as a user calls it (the default), by ``method="kkt"``, and by
-    the sandwich with two blocks per trial; with motor noise also by the MAP fit that models
-    it (``process_noise``), default errors."""
+    the sandwich over its default blocks and with two blocks per trial; with motor noise also
+    by the MAP fit that models it (``process_noise``), default errors."""
     import sys
 
     import sympy as sm
@@ -337,6 +340,7 @@ def trials_case(realisations: int, disturbance: str, seed0: int = 0) -> dict[str
             ways = {"default": {}}
             if fit == "exact":
                 ways["kkt"] = {"method": "kkt"}
+                ways["blocks"] = {"method": "sandwich"}
                 ways["halves"] = {"method": "sandwich", "blocks": 2}
             for way, options in ways.items():
                 errors = colloc.parameter_uncertainty(
@@ -381,6 +385,7 @@ def trials_case(realisations: int, disturbance: str, seed0: int = 0) -> dict[str
         "truth": truth,
         "exact_default": summary("exact", "default"),
         "exact_kkt": summary("exact", "kkt"),
+        "exact_blocks": summary("exact", "blocks"),
         "exact_halves": summary("exact", "halves"),
     }
     if disturbance == "motor":

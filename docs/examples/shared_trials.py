@@ -3,7 +3,8 @@
 Each trial has its own length, sample rate, driving force and initial state, and its own
 sensor offset (the marker was taped anew each time); damping and stiffness are shared. Each
 trial is a ``colloc.Problem``; ``colloc.Trials`` solves them as one estimate, and
-``colloc.parameter_uncertainty`` gives sandwich errors whose blocks lie inside trials. Run::
+``colloc.parameter_uncertainty`` gives errors from the residuals, whose autoregression is
+fitted trial by trial. Run::
 
     python docs/examples/shared_trials.py
 
