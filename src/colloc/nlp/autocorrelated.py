@@ -21,10 +21,9 @@ from __future__ import annotations
 from collections.abc import Sequence
 
 import numpy as np
-import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
-from colloc.nlp.kkt import ReducedKKT, constraint_jacobian, hessian_matrix
+from colloc.nlp.kkt import ReducedKKT, constraint_jacobian, hessian_matrix, states_kkt
 from colloc.nlp.residuals import SignalResiduals
 from colloc.nlp.scores import per_sample
 from colloc.nlp.trials import Trials
@@ -119,7 +118,7 @@ def autoregressive_covariance(
     series = [np.stack([residuals[i].residuals for i in signals], axis=1) for signals in groups]
     H = hessian_matrix(design, hessian)
     C = constraint_jacobian(design, z)
-    lu = spla.splu(sp.bmat([[H, C.T], [C, None]], format="csc"))
+    lu = spla.splu(states_kkt(H, C, n))  # the whole KKT matrix: every free variable
     m = C.shape[0]
 
     def respond(noise: list[np.ndarray]) -> list[np.ndarray]:

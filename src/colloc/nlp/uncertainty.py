@@ -208,8 +208,8 @@ def parameter_uncertainty(
         When there are no unknown parameters, no more measurements than free quantities,
         the KKT matrix is singular (unidentifiable parameters), ``method`` or ``blocks`` is
         not one of the accepted values, ``method="autoregressive"`` meets data it cannot
-        model (a non-uniform grid, samples left out, fewer than 25 per trial), the blocks would leave a parameter only one block (a
-        trial's own parameter in a one-block trial), or ``solution`` is not a solve of
+        model (a non-uniform grid, samples left out, fewer than 25 per trial), the blocks
+        would leave a parameter only one block (a trial's own parameter in a one-block trial), or ``solution`` is not a solve of
         ``problem`` (another free vector's length).
 
     Warns
@@ -248,13 +248,15 @@ def _uncertainty(
     if method not in METHODS:
         raise ValueError(f"method: expected one of {list(METHODS)}, found {method!r}")
     reason = "asked for"
+    asked = method != "auto"
     priors = any(p.process_noise or p.measured_inputs for p in design.problems)
     needed = method != "kkt" or priors or per_output
     residuals, owners = trial_residuals(design, solution.z) if needed else (None, [])
     if method == "auto":
         assert residuals is not None
         method, reason = _choose_method(design, residuals, owners, per_output, blocks)
-    if method == "autoregressive":
+    if method == "autoregressive" and asked:
+        # (auto has checked it before choosing it)
         assert residuals is not None
         obstacle = autoregressive_obstacle(design, residuals, owners)
         if obstacle:
@@ -300,7 +302,7 @@ def _uncertainty(
                 design, solution.z, hessian, kkt, residuals, owners, slopes
             )
         except ValueError as exc:
-            if reason == "asked for":
+            if asked:
                 raise ValueError(
                     f"method: 'autoregressive' cannot model these residuals ({exc}); use "
                     "method='sandwich'"
@@ -380,7 +382,7 @@ def _choose_method(
     residuals: Sequence[SignalResiduals],
     owners: Sequence[int],
     per_output: bool,
-    blocks: object = None,
+    blocks: int | Sequence[int] | Sequence[Sequence[int]] | None = None,
 ) -> tuple[str, str]:
     """``method="auto"``: the method, and why, from the residuals at the solution."""
     if per_output:
