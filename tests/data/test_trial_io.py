@@ -108,6 +108,47 @@ def test_overwrite_replaces_trial_and_leaves_no_temporaries(trial_dir: Path, tri
     assert [p.name for p in trial_dir.parent.iterdir()] == ["trial"]
 
 
+@pytest.mark.parametrize(
+    "foreign",
+    ["notes.txt", "export.tsv", ".hidden", "sub/"],
+)
+def test_overwrite_never_replaces_a_folder_holding_anything_but_a_trial(
+    tmp_path: Path, trial: Trial, foreign: str
+) -> None:
+    folder = tmp_path / "mine"
+    folder.mkdir()
+    if foreign.endswith("/"):
+        (folder / foreign).mkdir()
+        (folder / foreign / "data.bin").write_bytes(b"keep")
+    else:
+        (folder / foreign).write_text("keep")
+    before = sorted(p.relative_to(folder) for p in folder.rglob("*"))
+    with pytest.raises(FileExistsError, match=f"holds '{foreign.rstrip('/')}', which is not"):
+        trial.write(folder, overwrite=True)
+    assert sorted(p.relative_to(folder) for p in folder.rglob("*")) == before
+    assert [p.name for p in tmp_path.iterdir()] == ["mine"]
+
+
+def test_overwrite_refuses_a_file_and_a_link_and_keeps_them(tmp_path: Path, trial: Trial) -> None:
+    file = tmp_path / "a-file"
+    file.write_text("keep")
+    with pytest.raises(FileExistsError, match="is a file, not a trial folder"):
+        trial.write(file, overwrite=True)
+    assert file.read_text() == "keep"
+    real = tmp_path / "real"
+    trial.write(real)
+    link = tmp_path / "link"
+    link.symlink_to(real, target_is_directory=True)
+    with pytest.raises(FileExistsError, match="is a link, not a trial folder"):
+        trial.write(link, overwrite=True)
+    assert link.is_symlink() and read_trial(real).time.size == trial.time.size
+
+
+def test_overwrite_replaces_an_empty_folder(tmp_path: Path, trial: Trial) -> None:
+    (tmp_path / "empty").mkdir()
+    assert read_trial(trial.write(tmp_path / "empty", overwrite=True)).time.size == trial.time.size
+
+
 def test_failed_write_keeps_the_good_trial(
     trial_dir: Path, trial: Trial, monkeypatch: pytest.MonkeyPatch
 ) -> None:

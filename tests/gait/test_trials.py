@@ -345,6 +345,38 @@ def test_settings_report_every_bad_field_before_any_work(monkeypatch, tmp_path):
     assert GaitSimulationSettings(perturbed=False).problems() == []
 
 
+def test_a_users_folder_named_trial_in_out_is_refused_before_any_work(monkeypatch, tmp_path):
+    """The trial goes to <out>/trial/, which replaces only a trial: a folder of that name
+    holding the user's own files stops the run before any work and stays as it was."""
+    from colloc.gait.workflow import GaitSimulationSettings, simulate_trial
+
+    calls: list = []
+    fake_pipeline(monkeypatch, calls)
+    (tmp_path / "trial").mkdir()
+    (tmp_path / "trial" / "raw.c3d").write_bytes(b"lab data")
+    settings = GaitSimulationSettings(duration=3.0, out=tmp_path, perturbed=False)
+    (problem,) = settings.problems()
+    assert problem.startswith("out: the trial goes to trial/ inside it, but")
+    assert "holds 'raw.c3d', which is not part of a trial" in problem
+    with pytest.raises(ValueError, match="raw.c3d"):
+        simulate_trial(settings)
+    assert calls == [] and (tmp_path / "trial" / "raw.c3d").read_bytes() == b"lab data"
+
+
+def test_publish_moves_nothing_when_a_folder_may_not_be_replaced(tmp_path):
+    from colloc.gait.outputs import publish
+
+    staging, out = tmp_path / "staging", tmp_path / "out"
+    (staging / "trial").mkdir(parents=True)
+    (staging / "summary.json").write_text("{}")
+    (out / "trial").mkdir(parents=True)
+    (out / "trial" / "mine.txt").write_text("keep")
+    with pytest.raises(FileExistsError, match="holds 'mine.txt'"):
+        publish(staging, out, ["trial", "summary.json"])
+    assert sorted(p.name for p in out.rglob("*")) == ["mine.txt", "trial"]
+    assert (staging / "summary.json").exists()
+
+
 @pytest.mark.parametrize("radius", [1.0, 314.0, float("nan")])
 def test_an_unstable_design_is_refused_before_simulating(monkeypatch, tmp_path, radius):
     from colloc.gait.workflow import (

@@ -221,3 +221,34 @@ def test_the_help_states_the_settings_defaults(capsys):
     names = ", ".join(getattr(ms, k) for k in ("shoulder", "hip", "knee", "ankle", "heel", "toe"))
     assert f"(default {names})" in text
     assert "(default right=FP2,left=FP1)" in text and "(default right=R,left=L)" in text
+
+
+def test_overwrite_never_deletes_the_inputs_or_a_users_files(tmp_path, capsys):
+    """`--out DIR --overwrite` replaces a trial colloc wrote and nothing else: pointed at the
+    folder holding the export, or at one holding someone's file, it is refused before any
+    work and every file stays."""
+    folder = tmp_path / "lab"
+    folder.mkdir()
+    export = folder / "rawdata.txt"
+    export.write_bytes(CLIP.read_bytes())
+    base = ["gait", "trial-from-lab", str(export), "--mass", "67.2", "--height", "1.7"]
+    base += ["--belt-speed", "1.1", "--overwrite", "--out"]
+    assert main([*base, str(folder)]) == 2
+    assert "holds the markers file" in capsys.readouterr().err
+    assert export.read_bytes() == CLIP.read_bytes()
+    mine = tmp_path / "mine"
+    mine.mkdir()
+    (mine / "thesis.tex").write_text("years of work")
+    assert main([*base, str(mine)]) == 2
+    err = capsys.readouterr().err
+    assert "holds 'thesis.tex', which is not part of a trial" in err
+    assert (mine / "thesis.tex").read_text() == "years of work"
+    # an output under a file is named before the work, not found after it
+    assert main([*base, str(export / "trial")]) == 2
+    assert "is a file, not a folder" in capsys.readouterr().err
+    assert sorted(p.name for p in tmp_path.rglob("*")) == [
+        "lab",
+        "mine",
+        "rawdata.txt",
+        "thesis.tex",
+    ]

@@ -7,7 +7,7 @@ import math
 from pathlib import Path
 from typing import Any
 
-from colloc.cli.common import number, path_arg, report_problems
+from colloc.cli.common import number, output_problems, path_arg, report_problems
 
 COMMAND = "colloc gait trial-from-lab"
 
@@ -188,11 +188,38 @@ def trial_from_lab_checks(args: argparse.Namespace) -> tuple[Any, list[str]]:
     for flag, path in (("markers", args.markers), ("--forces", args.forces)):
         if path is not None and not path.is_file():
             problems.append(f"{flag} {str(path)!r}: no such file")
-    if args.out.exists() and not args.overwrite:
-        problems.append(f"--out {str(args.out)!r}: exists; give --overwrite to replace it")
-    elif args.out.exists() and not args.out.is_dir():
-        problems.append(f"--out {str(args.out)!r}: is a file, not a folder")
+    problems += _out_problems(args)
     return settings, problems
+
+
+def _out_problems(args: argparse.Namespace) -> list[str]:
+    """What stops ``--out`` from taking the trial, found before any work: a folder that is
+    not a trial colloc may replace (it may hold the inputs or someone's files), or a place
+    that cannot be written."""
+    from colloc.data.trial import replace_refusal
+
+    out = args.out
+    inputs = [("markers", args.markers), ("--forces", args.forces)]
+    for flag, path in inputs:
+        if path is not None and _inside(path, out):
+            return [
+                f"--out {str(out)!r}: holds the {flag} file {str(path)!r}; the trial is "
+                "written to a folder of its own, choose another --out"
+            ]
+    if out.exists() or out.is_symlink():
+        if not args.overwrite:
+            return [f"--out {str(out)!r}: exists; give --overwrite to replace it"]
+        refusal = replace_refusal(out)
+        if refusal is not None:
+            return [f"--out: {refusal}"]
+    # the trial is staged beside the folder and renamed into place: the parent takes the writes
+    return output_problems(None, out.absolute().parent)
+
+
+def _inside(path: Path, folder: Path) -> bool:
+    """Whether ``path`` is ``folder`` or lies below it (links resolved)."""
+    resolved, root = path.resolve(), folder.resolve()
+    return resolved == root or root in resolved.parents
 
 
 def run(args: argparse.Namespace) -> int:

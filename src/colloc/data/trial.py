@@ -171,7 +171,10 @@ class Trial:
         directory : path-like
             Trial directory to create.
         overwrite : bool
-            Replace an existing ``directory``; otherwise it is an error.
+            Replace an existing ``directory``; otherwise it is an error. Only a folder that
+            holds nothing but a trial's files (see :func:`replace_refusal`) is replaced: a
+            folder with anything else in it, such as the lab export the trial was made
+            from, is refused and left as it is.
 
         Returns
         -------
@@ -183,7 +186,8 @@ class Trial:
         TrialError
             If the trial is invalid (nothing is written).
         FileExistsError
-            If ``directory`` exists and ``overwrite`` is False.
+            If ``directory`` exists and ``overwrite`` is False, or it is not a trial folder
+            that may be replaced.
         """
         self.validate()
         target = Path(directory)
@@ -191,6 +195,9 @@ class Trial:
             raise FileExistsError(
                 f"directory {str(target)!r} already exists; pass overwrite=True to replace it"
             )
+        refusal = replace_refusal(target)
+        if refusal is not None:
+            raise FileExistsError(refusal)
         target.parent.mkdir(parents=True, exist_ok=True)
         staging = Path(tempfile.mkdtemp(prefix=f".{target.name}.", dir=target.parent))
         backup = target.parent / f".{target.name}.old-{uuid.uuid4().hex}"
@@ -226,6 +233,47 @@ class Trial:
             }
         with open(directory / METADATA_FILE_NAME, "w", encoding="utf-8") as stream:
             yaml.safe_dump(_plain(metadata), stream, sort_keys=False, allow_unicode=True)
+
+
+def replace_refusal(directory: str | os.PathLike[str]) -> str | None:
+    """Why an existing ``directory`` may not be replaced by a trial (None when it may).
+
+    A trial replaces only what a trial is: a missing path, an empty folder, or a folder
+    holding nothing but the files a trial is made of (``trial.csv`` or ``trial.tsv``,
+    ``events.csv``, ``metadata.yaml``). Anything else in the folder (another file, a
+    subfolder, a hidden file) may be a user's and is never deleted.
+
+    Parameters
+    ----------
+    directory : path-like
+        The folder a trial is about to be written to.
+
+    Returns
+    -------
+    str or None
+        A sentence naming the folder and what in it is not a trial's, or None.
+    """
+    target = Path(directory)
+    if not target.exists() and not target.is_symlink():
+        return None
+    if target.is_symlink() or not target.is_dir():
+        kind = "a link" if target.is_symlink() else "a file"
+        return f"{str(target)!r} is {kind}, not a trial folder; it is left as it is"
+    allowed = {*TRIAL_FILE_NAMES, EVENTS_FILE_NAME, METADATA_FILE_NAME}
+    try:
+        entries = sorted(os.listdir(target))
+    except OSError as error:
+        return f"{str(target)!r} cannot be read ({error}); it is left as it is"
+    foreign = [name for name in entries if name not in allowed or not (target / name).is_file()]
+    if foreign:
+        shown = ", ".join(repr(name) for name in foreign[:5])
+        more = f" and {len(foreign) - 5} more" if len(foreign) > 5 else ""
+        return (
+            f"{str(target)!r} holds {shown}{more}, which is not part of a trial; only a "
+            "folder holding a trial's files alone (trial.csv, events.csv, metadata.yaml) is "
+            "replaced: choose a new folder or move those out"
+        )
+    return None
 
 
 def _plain(value: Any) -> Any:

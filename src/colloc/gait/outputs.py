@@ -27,6 +27,7 @@ from typing import Any
 import numpy as np
 
 from colloc.data.columns import JOINT_ANGLE_COLUMNS
+from colloc.data.trial import replace_refusal
 from colloc.models.gait2d import CONTACT_POINT_NAMES
 from colloc.plot.common import save_figure
 from colloc.plot.gait import plot_contact_forces, plot_joint_angles_by_cycle
@@ -72,7 +73,9 @@ def publish(staging: Path, out: Path, names: list[str]) -> dict[str, Path]:
     """Move the named items of ``staging`` into ``out`` by renames, in the given order.
 
     A directory replaces its namesake through a rename to a backup first, so that at every
-    moment either the old or the new complete directory is in place.
+    moment either the old or the new complete directory is in place; it replaces only a
+    folder that holds a trial's files alone (:func:`colloc.data.trial.replace_refusal`), and
+    when one is refused nothing is moved.
 
     Parameters
     ----------
@@ -88,6 +91,13 @@ def publish(staging: Path, out: Path, names: list[str]) -> dict[str, Path]:
     dict
         Name -> new path.
     """
+    refusals = [
+        refusal
+        for name in names
+        if (staging / name).is_dir() and (refusal := replace_refusal(out / name)) is not None
+    ]
+    if refusals:  # nothing moved yet: the old outputs and the user's files stay as they are
+        raise FileExistsError("; ".join(refusals))
     moved = {}
     for name in names:
         source, target = staging / name, out / name

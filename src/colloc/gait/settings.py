@@ -17,6 +17,7 @@ from typing import Any
 import numpy as np
 
 from colloc.data.belt import perturbation_belt_speed, read_belt_perturbation
+from colloc.data.trial import replace_refusal
 from colloc.gait.cycle import MIN_NUM_NODES
 from colloc.gait.design import FEEDBACK_SETS
 from colloc.gait.trials import resolve_noise_std
@@ -218,6 +219,12 @@ class GaitSimulationSettings:
             out.append("out: expected a directory path, found an empty one")
         elif Path(self.out).exists() and not Path(self.out).is_dir():
             out.append(f"out: expected a directory, found an existing file {str(self.out)!r}")
+        else:
+            from colloc.gait.outputs import TRIAL_DIR  # figures' imports: only when checked
+
+            refusal = replace_refusal(Path(self.out) / TRIAL_DIR)
+            if refusal is not None:
+                out.append(f"out: the trial goes to {TRIAL_DIR}/ inside it, but {refusal}")
         if self.perturbed is True and not self.belt_path.is_file():
             out.append(
                 f"belt_record: expected an existing belt-speed record file, found "
