@@ -39,6 +39,7 @@ import numpy as np
 
 from colloc.data.belt import belt_position
 from colloc.gait.design import JOINT_STATES
+from colloc.gait.falls import describe_fall, describe_turn
 from colloc.gait.orbit import NUM_STATES, NUM_TORQUES, GaitDynamics
 from colloc.gait.strikes import (
     HEEL_STRIKE_THRESHOLD,
@@ -276,6 +277,8 @@ def simulate_walking(
         v_all = np.full(num, float(cycle.belt_speed))
     else:
         v_all = np.interp(times, *belt_speed)
+    # the speed the walk was made for, against which the belt's excursions are told
+    walking_speed = float(np.median(v_all) if cycle is None else cycle.belt_speed)
     rng = np.random.default_rng(seed)
     noise_all = torque_noise * rng.standard_normal((num + CHUNK_SAMPLES, NUM_TORQUES))
     if hip_height_range is None:
@@ -326,21 +329,11 @@ def simulate_walking(
             torques[k] = np.asarray(torque_fn(states[k], tau, p)).ravel()
             phase[k] = stride_count + min(a + b * tau, 1.0 + phi0)
             fy[k] = _foot_forces(dyn, states[k], v_all[k])
-            if not hip_height_range[0] <= states[k, 1] <= hip_height_range[1]:
+            cause = _lost(states[k], hip_height_range)
+            if cause is not None:
                 fell = True
-                message = (
-                    f"fell at t = {times[k]:.2f} s: hip height {states[k, 1]:.3f} m left the "
-                    f"walking range {hip_height_range}"
-                )
-                i = k
-                break
-            spun = np.flatnonzero(np.abs(states[k, 2:9]) > MAX_SEGMENT_ANGLE)
-            if spun.size:  # a joint that turned over: the walk is lost even if the hip held
-                fell = True
-                message = (
-                    f"fell at t = {times[k]:.2f} s: coordinate {int(spun[0]) + 2} reached "
-                    f"{np.degrees(states[k, 2 + spun[0]]):.0f} degrees (beyond +/-"
-                    f"{np.degrees(MAX_SEGMENT_ANGLE):.0f})"
+                message = describe_fall(
+                    cause, times, v_all, k, len(strikes["right"]), walking_speed
                 )
                 i = k
                 break
@@ -394,6 +387,19 @@ def simulate_walking(
     )
     logger.info("simulate_walking: %s (%.1f s wall)", message, wall)
     return record
+
+
+def _lost(state: np.ndarray, hip_height_range: tuple[float, float]) -> str | None:
+    """What of ``state`` says the walk is lost, in words (None while it is walking)."""
+    low, high = hip_height_range
+    if not low <= state[1] <= high:
+        where = "dropped" if state[1] < low else "rose"
+        return f"the hip {where} to {state[1]:.3f} m (walking range {low:.3f}-{high:.3f} m)"
+    spun = np.flatnonzero(np.abs(state[2:9]) > MAX_SEGMENT_ANGLE)
+    if spun.size:  # a joint that turned over: the walk is lost even if the hip held
+        index = int(spun[0]) + 2
+        return describe_turn(index, float(state[index]), MAX_SEGMENT_ANGLE)
+    return None
 
 
 def _next_duration(measured: float, nominal: float) -> float:
