@@ -111,6 +111,13 @@ def test_auto_takes_it_without_a_noise_model_and_says_why():
     assert blocked.method == "sandwich" and blocked.blocks == 10
 
 
+@pytest.mark.parametrize("method", ["kkt", "autoregressive"])
+def test_blocks_for_a_method_without_blocks_is_refused_by_name(method):
+    problem, solution = fit(0, 0.5)
+    with pytest.raises(ValueError, match=f"blocks: only the sandwich.*method='{method}'"):
+        parameter_uncertainty(problem, solution, method=method, blocks=10, discretisation=False)
+
+
 def test_auto_falls_back_to_blocks_where_no_series_can_be_had_and_the_method_refuses_by_name():
     times = np.concatenate([np.linspace(0.0, 3.0, 151), np.linspace(3.01, 6.0, 100)])
     with warnings.catch_warnings():

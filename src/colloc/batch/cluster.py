@@ -16,6 +16,13 @@ from typing import Any
 import dask
 from distributed import Client, LocalCluster
 
+#: Seconds to reach a scheduler before its address is reported as unusable.
+CONNECT_TIMEOUT = 20
+
+
+class SchedulerError(ConnectionError):
+    """A Dask scheduler address that could not be used (named in the message)."""
+
 
 def default_workers() -> int:
     """Workers of the local cluster by default: one per core."""
@@ -55,7 +62,17 @@ def dask_client(workers: int | None = None, scheduler: str | None = None) -> Ite
                 dashboard_address=None,
                 silence_logs=logging.ERROR,
             )
-    client = Client(cluster if cluster is not None else scheduler)
+    try:
+        client = Client(cluster if cluster is not None else scheduler, timeout=CONNECT_TIMEOUT)
+    except Exception as error:  # a wrong address fails in many ways inside distributed
+        if cluster is not None:
+            cluster.close()
+            raise
+        raise SchedulerError(
+            f"scheduler: could not use the Dask scheduler at {scheduler!r} "
+            f"({type(error).__name__}: {str(error).splitlines()[0] if str(error) else 'no answer'}"
+            "); check the address (tcp://host:8786) and that the scheduler is running"
+        ) from error
     try:
         yield client
     finally:

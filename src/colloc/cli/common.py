@@ -22,6 +22,24 @@ def positive_int(text: str) -> int:
     return value
 
 
+#: Local Dask workers allowed per core: each is a process holding colloc and a window's
+#: problem (hundreds of MB); beyond this a machine only swaps (--workers 1000000000 took
+#: 4 GB in 8 s before failing).
+WORKERS_PER_CORE = 4
+
+
+def worker_count(text: str) -> int:
+    """Local worker processes: 1 to :data:`WORKERS_PER_CORE` per core of this machine."""
+    value = positive_int(text)
+    most = WORKERS_PER_CORE * (os.cpu_count() or 1)
+    if not 1 <= value <= most:
+        raise argparse.ArgumentTypeError(
+            f"expected 1 to {most} local workers ({WORKERS_PER_CORE} per core on this machine; "
+            f"for more, start a Dask cluster and give --scheduler), found {text!r}"
+        )
+    return value
+
+
 def at_least_one(text: str) -> int:
     """A count: an integer >= 1 (``--workers -1`` waited for ever on a cluster of none)."""
     value = positive_int(text)

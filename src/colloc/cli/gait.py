@@ -22,6 +22,7 @@ from colloc.cli.common import (
     report_problems,
     step_printer,
     store_or_keep,
+    worker_count,
 )
 
 
@@ -203,7 +204,7 @@ def _identify_parser(gs: Any, default_url: str) -> None:
     )
     idp.add_argument(
         "--workers",
-        type=positive_int,
+        type=worker_count,
         default=None,
         metavar="N",
         help="smooth the stride windows (--window-strides) on a local Dask cluster of N worker "
@@ -278,6 +279,11 @@ def gait_identify_checks(
             "--workers/--scheduler: expected --window-strides N (the stride windows are what "
             "the workers smooth), found none"
         )
+    if args.workers is not None and args.scheduler is not None:
+        spread.append(
+            "--workers/--scheduler: expected one of them (local workers, or a running "
+            f"cluster's), found both: --workers {args.workers} --scheduler {args.scheduler}"
+        )
     return settings, settings.problems(require_trial=require_trial) + outputs + spread
 
 
@@ -298,15 +304,21 @@ def _gait_identify(args: argparse.Namespace) -> int:
     start = time.perf_counter()
     progress = step_printer(start)
     if args.workers is not None or args.scheduler is not None:
-        from colloc.batch.cluster import client_map, dask_client
+        from colloc.batch.cluster import SchedulerError, client_map, dask_client
 
         progress("workers", f"Dask: {args.scheduler or f'{args.workers} local workers'}")
         from colloc.numeric.memory import peak_rss_mb
 
-        with dask_client(args.workers, args.scheduler) as client:
-            run = identify_gait(settings, progress, print_iteration, map_windows=client_map(client))
-            # each worker's peak with its forked solvers': what the windows cost in memory
-            worker_peaks = [float(v) for v in client.run(peak_rss_mb).values()]
+        try:
+            with dask_client(args.workers, args.scheduler) as client:
+                run = identify_gait(
+                    settings, progress, print_iteration, map_windows=client_map(client)
+                )
+                # each worker's peak with its forked solvers': what the windows cost in memory
+                worker_peaks = [float(v) for v in client.run(peak_rss_mb).values()]
+        except SchedulerError as error:
+            report_problems("colloc gait identify", [f"--{error}"])
+            return 2
     else:
         run = identify_gait(settings, progress=progress, iterations=print_iteration)
         worker_peaks = []

@@ -58,6 +58,20 @@ class MarkerSet:
             for mapping in ("prefixes", "plates")
             if sorted(getattr(self, mapping)) != sorted(SIDES)
         ]
+        for mapping in ("prefixes", "plates"):
+            values = getattr(self, mapping)
+            if problems:
+                break
+            if any(not isinstance(v, str) or not v.strip() for v in values.values()):
+                problems.append(
+                    f"{mapping}: expected a non-empty name per side, found {dict(values)}"
+                )
+            elif len(set(values.values())) < len(SIDES):
+                what = "markers" if mapping == "prefixes" else "plate"
+                problems.append(
+                    f"{mapping}: expected a different one per side, found {dict(values)}: both "
+                    f"sides would read the same {what}"
+                )
         if problems:
             raise ValueError("; ".join(problems))
 

@@ -247,6 +247,11 @@ def _uncertainty(
         )
     if method not in METHODS:
         raise ValueError(f"method: expected one of {list(METHODS)}, found {method!r}")
+    if blocks is not None and method in ("kkt", "autoregressive"):
+        raise ValueError(
+            f"blocks: only the sandwich estimate uses time blocks, but method={method!r} was "
+            "asked for; drop blocks= or use method='sandwich' (or 'auto')"
+        )
     reason = "asked for"
     asked = method != "auto"
     priors = any(p.process_noise or p.measured_inputs for p in design.problems)
