@@ -92,7 +92,9 @@ def add_parser(sub: Any, default_url: str) -> None:
         "--lab-export",
         action="store_true",
         help="also write the markers, force plates and belt speed a gait lab would have "
-        "recorded (lab-export.tsv, 1 mm marker noise; see colloc gait trial-from-lab)",
+        "recorded, 1 mm marker noise, in each format colloc gait trial-from-lab reads: "
+        "lab-export.tsv, lab-export.trc with lab-export_grf.mot and its _grf.xml, and "
+        "lab-export.c3d",
     )
     sim.add_argument(
         "--perturbation-scale",
@@ -431,12 +433,14 @@ def _gait_simulate(args: argparse.Namespace) -> int:
     start = time.perf_counter()
     result = simulate_trial(settings, progress=step_printer(start))
     if args.lab_export:
-        from colloc.lab import lab_export_from_record, write_lab_export
+        from colloc.lab import lab_export_from_record
+        from colloc.lab.writers import write_lab_files
         from colloc.models.gait2d_params import load_parameters
 
         params = load_parameters(settings.body_mass, settings.height)
         export = lab_export_from_record(result.record, params, seed=settings.seed)
-        result.files["lab export"] = write_lab_export(export, result.out / "lab-export.tsv")
+        for role, path in write_lab_files(export, result.out).items():
+            result.files[f"lab export ({role})"] = path
     for name, path in result.files.items():
         print(f"  {name}: {path}")
     for note in result.notes:

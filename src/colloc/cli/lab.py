@@ -48,9 +48,32 @@ def add_parser(gs: Any) -> None:
         "zero-lag filter, planar inverse kinematics and dynamics, heel strikes",
     )
     p.add_argument(
-        "markers", type=path_arg, help="marker export (tab or comma separated; may hold the plates)"
+        "markers",
+        type=path_arg,
+        help="the motion capture: C3D, OpenSim TRC, or a tab or comma export (a C3D or an "
+        "export may hold the plates too); the format is read from the content",
     )
-    p.add_argument("--forces", type=path_arg, default=None, help="force-plate export, if separate")
+    p.add_argument(
+        "--forces",
+        type=path_arg,
+        default=None,
+        help="the force plates, if in a file of their own: OpenSim MOT/STO, C3D or an export",
+    )
+    p.add_argument(
+        "--grf-xml",
+        type=path_arg,
+        default=None,
+        metavar="XML",
+        help="OpenSim's ExternalLoads file (the _grf.xml) naming each MOT plate's foot (by "
+        "default a plate goes to the foot whose markers its centre of pressure lies under)",
+    )
+    p.add_argument(
+        "--forward",
+        default=None,
+        metavar="AXIS",
+        help="walking direction in a 3-D file's axes, e.g. +x or -z (default: found from the "
+        "markers' motion)",
+    )
     p.add_argument("--mass", type=number, required=True, help="body mass, kg")
     p.add_argument("--height", type=number, required=True, help="body height, m")
     p.add_argument(
@@ -185,9 +208,20 @@ def trial_from_lab_checks(args: argparse.Namespace) -> tuple[Any, list[str]]:
     for problem in settings.problems():
         key = problem.split(":", 1)[0]
         problems.append(f"{flags.get(key, key)}{problem[len(key) :]}")
-    for flag, path in (("markers", args.markers), ("--forces", args.forces)):
+    for flag, path in (
+        ("markers", args.markers),
+        ("--forces", args.forces),
+        ("--grf-xml", args.grf_xml),
+    ):
         if path is not None and not path.is_file():
             problems.append(f"{flag} {str(path)!r}: no such file")
+    if args.forward is not None:
+        from colloc.lab.sagittal import parse_axis
+
+        try:
+            parse_axis(args.forward)
+        except ValueError as error:
+            problems.append(f"--{error}")
     problems += _out_problems(args)
     return settings, problems
 
@@ -199,7 +233,7 @@ def _out_problems(args: argparse.Namespace) -> list[str]:
     from colloc.data.trial import replace_refusal
 
     out = args.out
-    inputs = [("markers", args.markers), ("--forces", args.forces)]
+    inputs = [("markers", args.markers), ("--forces", args.forces), ("--grf-xml", args.grf_xml)]
     for flag, path in inputs:
         if path is not None and _inside(path, out):
             return [
@@ -237,6 +271,8 @@ def run(args: argparse.Namespace) -> int:
             args.forces,
             names=args.columns,
             force_names=args.force_columns,
+            mapping=args.grf_xml,
+            forward=args.forward,
         )
     except LabFileError as error:
         report_problems(COMMAND, [f"{error.source}: {p}" for p in error.problems])

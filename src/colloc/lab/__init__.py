@@ -1,4 +1,5 @@
-"""The gait lab's side: marker and force-plate exports to a colloc gait trial.
+"""The gait lab's side: marker and force-plate files (C3D, TRC, MOT/STO, tab exports) to a
+colloc gait trial.
 
 :func:`trial_from_lab` reads the exports, fills marker gaps, filters markers and forces
 alike (zero-lag Butterworth, 6 Hz by default), solves the planar inverse kinematics in
@@ -22,6 +23,14 @@ _EXPORTS = {
     "LabExport": "colloc.lab.exports",
     "LabFileError": "colloc.lab.exports",
     "read_lab_export": "colloc.lab.exports",
+    "read_lab_file": "colloc.lab.formats",
+    "lab_file_format": "colloc.lab.formats",
+    "LabRecord": "colloc.lab.record",
+    "PlateSeries": "colloc.lab.record",
+    "SagittalPlane": "colloc.lab.sagittal",
+    "find_plane": "colloc.lab.sagittal",
+    "sagittal_exports": "colloc.lab.sagittal",
+    "write_lab_files": "colloc.lab.writers",
     "dual_pass_correction": "colloc.data.filtering",
     "time_derivative": "colloc.data.filtering",
     "zero_lag_lowpass": "colloc.data.filtering",
@@ -49,6 +58,7 @@ if TYPE_CHECKING:  # for type checkers; re-exported through __all__
     from colloc.data.filtering import dual_pass_correction, time_derivative, zero_lag_lowpass
     from colloc.lab.dynamics import JointLoads, LegInertia, leg_inverse_dynamics
     from colloc.lab.exports import LabExport, LabFileError, read_lab_export
+    from colloc.lab.formats import lab_file_format, read_lab_file
     from colloc.lab.gaps import Gap, fill_gaps
     from colloc.lab.kinematics import (
         LEG2D_SIGNS,
@@ -59,6 +69,9 @@ if TYPE_CHECKING:  # for type checkers; re-exported through __all__
     )
     from colloc.lab.markers import DEFAULT_MARKER_SET, MarkerSet
     from colloc.lab.pipeline import LabResult, LabSettings, process_lab, trial_from_lab
+    from colloc.lab.record import LabRecord, PlateSeries
+    from colloc.lab.sagittal import SagittalPlane, find_plane, sagittal_exports
     from colloc.lab.synthetic import LabNoise, lab_export_from_record, write_lab_export
+    from colloc.lab.writers import write_lab_files
 
 __all__ = list(_EXPORTS)

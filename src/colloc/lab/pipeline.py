@@ -28,7 +28,7 @@ import hashlib
 import math
 import os
 from collections.abc import Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
@@ -57,11 +57,15 @@ from colloc.data.filtering import (
 )
 from colloc.data.trial import Trial
 from colloc.gait.strikes import HEEL_STRIKE_THRESHOLD, UNLOADED_FORCE
+from colloc.gait.trials import DEFAULT_NOISE_STD
 from colloc.lab.dynamics import LegInertia, leg_inverse_dynamics
-from colloc.lab.exports import LabExport, LabFileError, read_lab_export
+from colloc.lab.exports import LabExport, LabFileError
+from colloc.lab.formats import read_lab_file
 from colloc.lab.gaps import DEFAULT_MAX_GAP, GAP_CONTEXT, Gap, fill_gaps
 from colloc.lab.kinematics import joint_angles, segment_orientation, segment_orientations
 from colloc.lab.markers import LANDMARKS, MarkerSet
+from colloc.lab.record import LabRecord, PlateSeries
+from colloc.lab.sagittal import plates_under_feet, sagittal_exports
 from colloc.models.gait2d_params import Gait2DParameters, load_parameters
 from colloc.store.ids import package_versions
 
@@ -174,19 +178,29 @@ def trial_from_lab(
     *,
     names: Sequence[str] | None = None,
     force_names: Sequence[str] | None = None,
+    mapping: str | os.PathLike[str] | None = None,
+    forward: str | None = None,
 ) -> LabResult:
-    """Read a lab's exports and make a gait trial of them.
+    """Read a lab's files and make a gait trial of them.
 
     Parameters
     ----------
     markers_file : path-like
-        The marker export (it may hold the plates too).
+        The motion capture: a C3D (it may hold the plates too), an OpenSim TRC, or a tab
+        export (which may hold the plates too); the format is read from the content
+        (:func:`colloc.lab.formats.read_lab_file`).
     settings : LabSettings
     forces_file : path-like, optional
-        A separate force-plate export; its time stamps may differ from the markers' (the
-        filtered plate signals are then interpolated onto the marker times).
+        The force plates, if separate: a MOT/STO, a C3D or a tab export; its time stamps may
+        differ from the markers' (the filtered plate signals are then interpolated onto the
+        marker times).
     names, force_names : sequence of str, optional
-        Column names of header-less files.
+        Column names of header-less tab exports.
+    mapping : path-like, optional
+        OpenSim's ``_grf.xml`` naming the foot of each plate of a MOT/STO.
+    forward : str, optional
+        The walking direction in a 3-D file's axes (``"+x"``, ``"-z"``, ...); by default found
+        from the markers (:func:`colloc.lab.sagittal.find_plane`).
 
     Returns
     -------
@@ -197,27 +211,108 @@ def trial_from_lab(
     ValueError
         Every problem found at once: invalid settings, unreadable files
         (:class:`colloc.lab.exports.LabFileError`), missing markers or plates, gaps longer
-        than ``max_gap``, markers whose distance jumps (swapped markers), too short a record.
+        than ``max_gap``, markers whose distance jumps (swapped markers), plates under the
+        wrong foot, too short a record.
     """
     problems = settings.problems()
-    exports = []
-    for path, header in ((markers_file, names), (forces_file, force_names)):
+    read: list[LabExport | LabRecord] = []
+    for path, header, grf in ((markers_file, names, None), (forces_file, force_names, mapping)):
         if path is None:
             continue
         try:
-            exports.append(
-                read_lab_export(path, names=header, zeros_are_missing=settings.zeros_are_missing)
+            read.append(
+                read_lab_file(
+                    path,
+                    names=header,
+                    zeros_are_missing=settings.zeros_are_missing,
+                    mapping=grf,
+                )
             )
         except LabFileError as error:
             problems += [f"{error.source}: {p}" for p in error.problems]
     if problems:
         raise LabFileError("lab record", problems)
-    result = process_lab(exports[0], settings, exports[1] if len(exports) > 1 else None)
+    markers, forces, settings, notes = _planar(read, settings, forward)
+    result = process_lab(markers, settings, forces)
+    result.notes[:0] = notes
+    result.trial.metadata["lab"]["notes"][:0] = notes
     sources = {"markers": _file_record(markers_file)}
     if forces_file is not None:
         sources["forces"] = _file_record(forces_file)
+    if mapping is not None:
+        sources["plate_sides"] = _file_record(mapping)
     result.trial.metadata["lab"]["sources"] = sources
     return result
+
+
+def _planar(
+    read: list[LabExport | LabRecord], settings: LabSettings, forward: str | None
+) -> tuple[LabExport, LabExport | None, LabSettings, list[str]]:
+    """The planar exports of what was read, and the settings with the plates' sides where
+    the files (or the centres of pressure under the feet) state them."""
+    if not any(isinstance(item, LabRecord) for item in read):
+        exports = [item for item in read if isinstance(item, LabExport)]
+        return exports[0], exports[1] if len(exports) > 1 else None, settings, []
+    records = [item if isinstance(item, LabRecord) else _as_record(item) for item in read]
+    marker_record = records[0]
+    plate_record = records[1] if len(records) > 1 else records[0]
+    markers, plates, sides, notes, _ = sagittal_exports(
+        marker_record, plate_record, settings.marker_set, forward
+    )
+    notes = (
+        marker_record.notes
+        + (plate_record.notes if plate_record is not marker_record else [])
+        + notes
+    )
+    if markers is None:
+        raise LabFileError(marker_record.source, ["no markers in it"])
+    if plates is not None and plate_record is marker_record:
+        markers = (
+            replace(markers, plates=plates.plates)
+            if plates.time.size == markers.time.size
+            else markers
+        )
+        forces = None if plates.time.size == markers.time.size else plates
+    else:
+        forces = plates
+    ms = settings.marker_set
+    stated = {side: name for name, side in sides.items()}
+    if len(stated) == 2 and stated != dict(ms.plates):
+        known = set((forces or markers).plates)
+        if all(name in known for name in ms.plates.values()) and ms.plates != MarkerSet().plates:
+            raise LabFileError(
+                "lab record",
+                [
+                    f"plates: the given plates {dict(ms.plates)} contradict the record, whose "
+                    f"centres of pressure put {stated} under the feet"
+                ],
+            )
+        settings = replace(settings, marker_set=replace(ms, plates=stated))
+        notes.append(f"plates under the feet: {stated}")
+    return markers, forces, settings, notes
+
+
+def _as_record(export: LabExport) -> LabRecord:
+    """A planar export as a 3-D record in (forward, up, 0), so it can pair with a 3-D file."""
+    markers = {
+        name: np.column_stack([xy, np.zeros(len(xy))]) for name, xy in export.markers.items()
+    }
+    plates = {}
+    for name, channels in export.plates.items():
+        fx, fy, mz = channels.T
+        with np.errstate(divide="ignore", invalid="ignore"):
+            cop = np.where(fy > UNLOADED_FORCE, mz / fy, np.nan)
+        zeros = np.zeros(len(fx))
+        plates[name] = PlateSeries(
+            export.time,
+            np.column_stack([fx, fy, zeros]),
+            np.column_stack([cop, zeros, zeros]),
+            np.zeros((len(fx), 3)),
+        )
+    return LabRecord(
+        time=export.time, markers=markers, plates=plates, up=1, source=export.source,
+        columns=dict(export.columns),
+    )  # fmt: skip
 
 
 def _file_record(path: str | os.PathLike[str]) -> dict[str, str]:
@@ -254,7 +349,8 @@ def process_lab(
     if lacking:
         problems.append(
             f"markers: {', '.join(lacking)} not in {markers.source or 'the export'} (found "
-            f"{', '.join(sorted(markers.markers)) or 'none'}); name the markers with marker_set"
+            f"{', '.join(sorted(markers.markers)) or 'none'}); name the markers with marker_set= (on "
+            "the command line --marker-names and --prefixes)"
         )
     plates = forces if forces is not None else markers
     absent = [ms.plates[side] for side in SIDES if ms.plates[side] not in plates.plates]
@@ -270,6 +366,11 @@ def process_lab(
             f"belt_speed: no column {belt_column!r} in the exports (found "
             f"{', '.join(sorted(columns)) or 'none'})"
         )
+    unit_notes: list[str] = []
+    if not problems:
+        params = load_parameters(settings.body_mass, settings.height)
+        markers, unit_notes = _metres(markers, ms, params)
+        problems += _plate_side_problems(markers, plates, ms)
     if problems:
         raise LabFileError("lab record", problems)
     fs = markers.sample_rate
@@ -277,7 +378,7 @@ def process_lab(
         markers.time, {name: markers.markers[name] for name in needed}, settings.max_gap
     )
     time = markers.time[span]
-    notes = [
+    notes = unit_notes + [
         f"marker {g.marker} missing at the {'start' if g.start <= markers.time[0] else 'end'} "
         f"({g.samples} samples): the record is cut to {time[0]:g}-{time[-1]:g} s"
         for g in gaps
@@ -346,6 +447,12 @@ def process_lab(
         raise LabFileError("lab record", length_problems)
     notes += length_notes
     noise = _noise(angles, trunk, loads, raw, smooth, settings)
+    notes += [
+        f"noise of {group}: none measurable in the record (its samples vary by exactly 0 "
+        f"where the noise is read, as a plate written as exact zeros in swing does): colloc's "
+        f"default {DEFAULT_NOISE_STD[group]:g} is used; set it if you know better"
+        for group in noise["unmeasured"]
+    ]
     metadata = {
         "sample_rate": float(f"{fs:.9g}"),  # not 99.99999999999991 from the time stamps
         "body_mass": float(settings.body_mass),
@@ -357,6 +464,52 @@ def process_lab(
     trial = Trial(time, signals, strikes["right"], strikes["left"], metadata)
     trial.validate()
     return LabResult(trial=trial, gaps=gaps, notes=notes)
+
+
+def _metres(
+    markers: LabExport, ms: MarkerSet, params: Gait2DParameters
+) -> tuple[LabExport, list[str]]:
+    """Markers in metres: a planar export whose thighs measure about a thousand (or a hundred)
+    times the model's is in millimetres (centimetres), converted with a note."""
+    lengths = [
+        np.nanmedian(
+            np.linalg.norm(
+                markers.markers[ms.marker(s, "knee")] - markers.markers[ms.marker(s, "hip")], axis=1
+            )
+        )
+        for s in SIDES
+    ]
+    ratio = float(np.nanmedian(lengths)) / params.thigh.length
+    for unit, scale in (("mm", 1e-3), ("cm", 1e-2)):
+        if 0.3 / scale < ratio < 3.0 / scale:
+            planar = {name: xy * scale for name, xy in markers.markers.items()}
+            note = (
+                f"markers in {unit}: the thighs' markers lie {np.nanmedian(lengths):.0f} apart "
+                f"against the model's {params.thigh.length:.3f} m; converted to m"
+            )
+            return replace(markers, markers=planar), [note]
+    return markers, []
+
+
+def _plate_side_problems(markers: LabExport, plates: LabExport, ms: MarkerSet) -> list[str]:
+    """The plates named for each foot must carry that foot: their centres of pressure lie
+    between its heel and toe markers while loaded (a swapped pair of plates, one plate
+    named for both feet, or a free torque read as the moment all fail here)."""
+    named = {name: side for side, name in ms.plates.items()}
+    chosen = LabExport(plates.time, {}, {n: plates.plates[n] for n in named}, source=plates.source)
+    found, problems = plates_under_feet(markers, chosen, ms)
+    wrong = {name: side for name, side in found.items() if side != named[name]}
+    if wrong:
+        problems.append(
+            "plates: "
+            + "; ".join(
+                f"{name} is named for the {named[name]} foot but its centre of pressure lies "
+                f"under the {side} foot's markers"
+                for name, side in wrong.items()
+            )
+            + f" (--plates {','.join(f'{s}={n}' for s, n in ms.plates.items())}): swap them"
+        )
+    return problems
 
 
 def _plate_loads(
@@ -487,8 +640,12 @@ def _noise(
         "ground_reaction_force": force,
     }
     marker = _robust_sd(np.concatenate([(raw[n] - smooth[n]).ravel() for n in raw]))
+    unmeasured = sorted(group for group, value in std.items() if not value > 0)
     return {
-        "std": {group: max(value, 1e-9) for group, value in std.items()},
+        "std": {
+            group: value if value > 0 else DEFAULT_NOISE_STD[group] for group, value in std.items()
+        },
+        "unmeasured": unmeasured,
         "marker_std": marker,
         "estimated": "1.4826 x the median absolute deviation of the unfiltered minus the "
         "filtered signal (forces: of the second differences / sqrt 6 while the foot is off the "
