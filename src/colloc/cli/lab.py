@@ -68,6 +68,14 @@ def add_parser(gs: Any) -> None:
         "default a plate goes to the foot whose markers its centre of pressure lies under)",
     )
     p.add_argument(
+        "--static",
+        type=path_arg,
+        default=None,
+        metavar="FILE",
+        help="the standing trial (TRC or C3D): landmarks the walk lacks (epicondyles, "
+        "malleoli) are taken from it and carried by their segment's marker cluster",
+    )
+    p.add_argument(
         "--forward",
         default=None,
         metavar="AXIS",
@@ -212,6 +220,7 @@ def trial_from_lab_checks(args: argparse.Namespace) -> tuple[Any, list[str]]:
         ("markers", args.markers),
         ("--forces", args.forces),
         ("--grf-xml", args.grf_xml),
+        ("--static", args.static),
     ):
         if path is not None and not path.is_file():
             problems.append(f"{flag} {str(path)!r}: no such file")
@@ -233,7 +242,12 @@ def _out_problems(args: argparse.Namespace) -> list[str]:
     from colloc.data.trial import replace_refusal
 
     out = args.out
-    inputs = [("markers", args.markers), ("--forces", args.forces), ("--grf-xml", args.grf_xml)]
+    inputs = [
+        ("markers", args.markers),
+        ("--forces", args.forces),
+        ("--grf-xml", args.grf_xml),
+        ("--static", args.static),
+    ]
     for flag, path in inputs:
         if path is not None and _inside(path, out):
             return [
@@ -273,6 +287,7 @@ def run(args: argparse.Namespace) -> int:
             force_names=args.force_columns,
             mapping=args.grf_xml,
             forward=args.forward,
+            static=args.static,
         )
     except LabFileError as error:
         report_problems(COMMAND, [f"{error.source}: {p}" for p in error.problems])

@@ -63,7 +63,8 @@ from colloc.lab.exports import LabExport, LabFileError
 from colloc.lab.formats import read_lab_file
 from colloc.lab.gaps import DEFAULT_MAX_GAP, GAP_CONTEXT, Gap, fill_gaps
 from colloc.lab.kinematics import joint_angles, segment_orientation, segment_orientations
-from colloc.lab.markers import LANDMARKS, MarkerSet
+from colloc.lab.landmarks import landmark_record
+from colloc.lab.markers import DEFAULT_MARKER_SET, LANDMARKS, MarkerSet
 from colloc.lab.record import LabRecord, PlateSeries
 from colloc.lab.sagittal import plates_under_feet, sagittal_exports
 from colloc.models.gait2d_params import Gait2DParameters, load_parameters
@@ -180,6 +181,7 @@ def trial_from_lab(
     force_names: Sequence[str] | None = None,
     mapping: str | os.PathLike[str] | None = None,
     forward: str | None = None,
+    static: str | os.PathLike[str] | None = None,
 ) -> LabResult:
     """Read a lab's files and make a gait trial of them.
 
@@ -201,6 +203,10 @@ def trial_from_lab(
     forward : str, optional
         The walking direction in a 3-D file's axes (``"+x"``, ``"-z"``, ...); by default found
         from the markers (:func:`colloc.lab.sagittal.find_plane`).
+    static : path-like, optional
+        The standing trial (TRC or C3D): the landmarks the walk does not mark (epicondyles,
+        malleoli) are taken from it and carried by their segments' clusters
+        (:mod:`colloc.lab.landmarks`); what was taken is in the trial's metadata.
 
     Returns
     -------
@@ -230,17 +236,40 @@ def trial_from_lab(
             )
         except LabFileError as error:
             problems += [f"{error.source}: {p}" for p in error.problems]
+    standing = None
+    if static is not None:
+        try:
+            standing = read_lab_file(static)
+        except LabFileError as error:
+            problems += [f"{error.source}: {p}" for p in error.problems]
+        if standing is not None and not isinstance(standing, LabRecord):
+            problems.append(
+                f"{static}: a static trial must be 3-D (TRC or C3D), found a planar export"
+            )
     if problems:
         raise LabFileError("lab record", problems)
+    landmarks: dict[str, Any] = {}
+    first = read[0]
+    uses_default_names = settings.marker_set == MarkerSet()
+    if isinstance(first, LabRecord) and uses_default_names:
+        needed = [DEFAULT_MARKER_SET.marker(side, lm) for side in SIDES for lm in LANDMARKS]
+        if not all(name in first.markers for name in needed):
+            read[0], landmarks = landmark_record(
+                first, standing if isinstance(standing, LabRecord) else None
+            )
     markers, forces, settings, notes = _planar(read, settings, forward)
     result = process_lab(markers, settings, forces)
     result.notes[:0] = notes
     result.trial.metadata["lab"]["notes"][:0] = notes
+    if landmarks:
+        result.trial.metadata["lab"]["landmarks"] = landmarks
     sources = {"markers": _file_record(markers_file)}
     if forces_file is not None:
         sources["forces"] = _file_record(forces_file)
     if mapping is not None:
         sources["plate_sides"] = _file_record(mapping)
+    if static is not None:
+        sources["static"] = _file_record(static)
     result.trial.metadata["lab"]["sources"] = sources
     return result
 
