@@ -602,8 +602,19 @@ def test_cli_writes_the_lab_export_of_the_simulated_walk(monkeypatch, capsys, tm
     fake_pipeline(monkeypatch, calls)
     out = tmp_path / "sim"
     assert main(["gait", "simulate", "--duration", "6", "--lab-export", "--out", str(out)]) == 0
-    assert f"lab export: {out / 'lab-export.tsv'}" in capsys.readouterr().out
+    said = capsys.readouterr().out
+    for role, name in (
+        ("tsv", "lab-export.tsv"),
+        ("trc", "lab-export.trc"),
+        ("mot", "lab-export_grf.mot"),
+        ("c3d", "lab-export.c3d"),
+    ):
+        assert f"lab export ({role}): {out / name}" in said
     export = read_lab_export(out / "lab-export.tsv")
+    from colloc.lab import lab_file_format
+
+    assert lab_file_format(out / "lab-export.c3d") == "C3D"
+    assert lab_file_format(out / "lab-export_grf.mot") == "MOT"
     record = next(c for c in calls if c[0] == "simulate")
     assert export.time.size == 601 and sorted(export.plates) == ["FP1", "FP2"]
     assert len(export.markers) == 12 and sorted(export.columns) == [

@@ -226,3 +226,21 @@ def test_the_default_causal_phase_says_where_its_stride_and_reset_come_from(tmp_
         "(the trial's designed cycle)"
     )
     assert expected in summary["notes"]
+
+
+def test_a_record_too_short_says_how_long_a_record_is_needed(tmp_path):
+    """A 2.5 s walk (OpenSim's example is one) is told the length identification needs, from
+    its own strides and rate: two strides to fit and one held out, and the schedule's
+    unknowns per torque times P samples in a fit of 0.6 of the record."""
+    trial = copy_fixture(tmp_path)
+    frame = pd.read_csv(trial / "trial.csv")
+    frame[frame["time"] <= 2.5].to_csv(trial / "trial.csv", index=False)
+    events = pd.read_csv(trial / "events.csv")
+    events = events[events["time"] <= 2.5]
+    events.to_csv(trial / "events.csv", index=False)
+    message = read_error(trial, fit_fraction=0.6)
+    assert "trial: 2.5 s with 3 right heel strikes; identification needs at least 4" in message
+    stride = np.median(np.diff(events.loc[events["side"] == "right", "time"]))
+    width = int(message.split(" samples in the fit")[0].split()[-1]) // 20
+    needed = max(max(2 * stride, width * 20 / 100.0) / 0.6, 3 * stride)
+    assert f"at least {needed:.0f} s of walking at {stride:.2f} s a stride and 100 Hz" in message

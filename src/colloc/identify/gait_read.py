@@ -99,11 +99,8 @@ def read_gait_data(settings: GaitIdentifySettings) -> GaitData:
             points = int(recorded["num_points"])
     points = DEFAULT_POINTS if points is None else points
     strikes = trial.right_heel_strikes
-    if strikes.size < 4:
-        problems.append(
-            f"trial: expected right heel strikes to split and phase the trial, found "
-            f"{strikes.size} (events file)"
-        )
+    if strikes.size < MIN_RIGHT_STRIKES:
+        problems.append(_too_short(trial, settings, points, len(feedback)))
     if problems:
         raise ValueError("colloc gait identify: " + "; ".join(problems))
 
@@ -140,6 +137,29 @@ def read_gait_data(settings: GaitIdentifySettings) -> GaitData:
     if problems:
         raise ValueError("colloc gait identify: " + "; ".join(problems))
     return GaitData(trial, fit, held_out, rows, feedback, points, mask_metadata)
+
+
+#: Right heel strikes a trial needs: three whole strides, two to fit and one held out.
+MIN_RIGHT_STRIKES = 4
+#: A walking stride [s] assumed when a trial has too few strikes to measure its own.
+TYPICAL_STRIDE = 1.1
+
+
+def _too_short(trial: Trial, settings: GaitIdentifySettings, points: int, states: int) -> str:
+    """How long a record identification needs, against what the trial holds."""
+    strikes = trial.right_heel_strikes
+    stride = float(np.median(np.diff(strikes))) if strikes.size >= 2 else TYPICAL_STRIDE
+    rate = float(1.0 / np.median(np.diff(trial.time)))
+    width = 1 + (states if settings.structure == "full" else 2)
+    fit_seconds = max(2 * stride, width * points / rate)
+    needed = max(fit_seconds / settings.fit_fraction, (MIN_RIGHT_STRIKES - 1) * stride)
+    return (
+        f"trial: {trial.time[-1] - trial.time[0]:.1f} s with {strikes.size} right heel strikes; "
+        f"identification needs at least {MIN_RIGHT_STRIKES} (two strides to fit, one held out) "
+        f"and {width * points} samples in the fit for P = {points}: at least {needed:.0f} s of "
+        f"walking at {stride:.2f} s a stride and {rate:g} Hz. That only runs; errors near "
+        "the Cramér-Rao bound take minutes (docs/gait.md)"
+    )
 
 
 def trial_digest(trial: Trial) -> str:
