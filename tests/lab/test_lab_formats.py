@@ -299,3 +299,62 @@ def test_the_command_reads_a_trc_and_a_mot_and_names_its_flags(files, tmp_path, 
     assert read_trial(out).metadata["lab"]["sources"]["forces"]["path"].endswith("_grf.mot")
     assert main([*argv[:-2], "--out", str(tmp_path / "t2"), "--forward", "up"]) == 2
     assert "--forward: expected an axis such as +x" in capsys.readouterr().err
+
+
+def _refusal(export, tmp_path, **settings) -> str:
+    path = write_lab_export(export, tmp_path / "export.tsv")
+    with pytest.raises(LabFileError) as info:
+        trial_from_lab(path, LabSettings(*SUBJECT, **{"belt_speed": 1.2, **settings}))
+    return str(info.value)
+
+
+def test_markers_upside_down_are_refused(export, tmp_path):
+    flipped = {n: xy * np.array([1.0, -1.0]) for n, xy in export.markers.items()}
+    message = _refusal(LabExport(export.time, flipped, export.plates, export.columns), tmp_path)
+    assert "the vertical axis is not Y up" in message
+
+
+def test_a_one_frame_marker_spike_is_taken_as_missing_and_said(export, tmp_path):
+    spiked = {n: xy.copy() for n, xy in export.markers.items()}
+    spiked["RLEK"][150] += [1.0, 0.0]  # 1 m for one frame
+    path = write_lab_export(
+        LabExport(export.time, spiked, export.plates, export.columns), tmp_path / "s.tsv"
+    )
+    clean = write_lab_export(export, tmp_path / "c.tsv")
+    settings = LabSettings(*SUBJECT, belt_speed=1.2)
+    result = trial_from_lab(path, settings)
+    assert any(
+        "marker RLEK: 1 sample(s) jump away and back faster than 25 m/s (first at t = 1.5 s)" in n
+        for n in result.notes
+    )
+    reference = trial_from_lab(clean, settings).trial
+    knee = np.degrees(
+        np.abs(result.trial.signals["right_knee_angle"] - reference.signals["right_knee_angle"])
+    )
+    assert knee.max() < 1.0  # the spike cost 34 degrees before
+
+
+def test_a_cutoff_at_the_nyquist_frequency_and_a_vanishing_one_are_refused(export, tmp_path):
+    assert "at or near the Nyquist frequency of the markers (100 Hz sampled" in _refusal(
+        export, tmp_path, cutoff_hz=50.0
+    )
+    assert (
+        LabSettings(*SUBJECT, belt_speed=1.2, cutoff_hz=1e-9)
+        .problems()[0]
+        .startswith("cutoff_hz: expected a number of Hz in (1")
+    )
+
+
+def test_a_belt_speed_the_feet_contradict_is_refused(export, tmp_path):
+    assert (
+        LabSettings(*SUBJECT, belt_speed=-1.2)
+        .problems()[0]
+        .startswith("belt_speed: expected a speed >= 0")
+    )
+    message = _refusal(export, tmp_path, belt_speed=0.5)
+    assert "belt_speed: 0.5 m/s given, but the heels move backward at 1.19 m/s" in message
+
+
+def test_a_strike_threshold_no_step_reaches_is_refused(export, tmp_path):
+    message = _refusal(export, tmp_path, strike_threshold=1e9)
+    assert "strike_threshold: 1e+09 N, but the right foot's plate peaks at" in message

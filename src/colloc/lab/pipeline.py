@@ -65,6 +65,14 @@ from colloc.lab.gaps import DEFAULT_MAX_GAP, GAP_CONTEXT, Gap, fill_gaps
 from colloc.lab.kinematics import joint_angles, segment_orientation, segment_orientations
 from colloc.lab.landmarks import landmark_record
 from colloc.lab.markers import DEFAULT_MARKER_SET, LANDMARKS, MarkerSet
+from colloc.lab.plausibility import (
+    MAX_MARKER_SPEED,
+    belt_problems,
+    cutoff_problems,
+    gravity_problems,
+    spikes,
+    threshold_problems,
+)
 from colloc.lab.record import LabRecord, PlateSeries
 from colloc.lab.sagittal import plates_under_feet, sagittal_exports
 from colloc.models.gait2d_params import Gait2DParameters, load_parameters
@@ -79,6 +87,9 @@ MAX_LENGTH_CHANGE = 0.1
 LENGTH_NOTE_FRACTION = 0.15
 
 _MAD_TO_SD = 1.4826
+
+#: Lowest accepted filter cut-off [Hz].
+MIN_CUTOFF_HZ = 1.0
 
 
 @dataclass(frozen=True)
@@ -124,7 +135,8 @@ class LabSettings:
         checks = {
             "body_mass": (self.body_mass, 20.0, 300.0, "kg"),
             "height": (self.height, 0.5, 2.5, "m"),
-            "cutoff_hz": (self.cutoff_hz, 0.0, math.inf, "Hz"),
+            # below about 1 Hz a filter removes the stride itself (0.9 Hz at 1.1 s a stride)
+            "cutoff_hz": (self.cutoff_hz, MIN_CUTOFF_HZ, math.inf, "Hz"),
             "strike_threshold": (self.strike_threshold, 0.0, math.inf, "N"),
         }
         for name, (value, low, high, unit) in checks.items():
@@ -137,7 +149,12 @@ class LabSettings:
                 f"max_gap: expected a non-negative number of seconds, found {self.max_gap!r}"
             )
         speed = self.belt_speed
-        if not (isinstance(speed, str) and speed) and not (
+        if _real(speed) and math.isfinite(float(speed)) and float(speed) < 0:
+            out.append(
+                f"belt_speed: expected a speed >= 0 m/s (the belt's surface runs backward under "
+                f"a walker facing forward; 0 overground), found {speed!r}"
+            )
+        elif not (isinstance(speed, str) and speed) and not (
             _real(speed) and math.isfinite(float(speed))
         ):
             out.append(
@@ -399,13 +416,23 @@ def process_lab(
     if not problems:
         params = load_parameters(settings.body_mass, settings.height)
         markers, unit_notes = _metres(markers, ms, params)
-        problems += _plate_side_problems(markers, plates, ms)
+        problems += gravity_problems(markers, plates, ms)
+        problems += cutoff_problems(settings.cutoff_hz, markers.sample_rate, "markers")
+        problems += cutoff_problems(settings.cutoff_hz, plates.sample_rate, "plates")
+        if not problems:
+            problems += _plate_side_problems(markers, plates, ms)
     if problems:
         raise LabFileError("lab record", problems)
     fs = markers.sample_rate
-    filled, gaps, span = fill_gaps(
-        markers.time, {name: markers.markers[name] for name in needed}, settings.max_gap
-    )
+    wanted = {name: markers.markers[name].copy() for name in needed}
+    for name, rows in spikes(wanted, fs).items():
+        wanted[name][rows] = np.nan
+        unit_notes.append(
+            f"marker {name}: {rows.size} sample(s) jump away and back faster than "
+            f"{MAX_MARKER_SPEED:g} m/s (first at t = {markers.time[rows[0]]:g} s): taken as "
+            "missing and filled"
+        )
+    filled, gaps, span = fill_gaps(markers.time, wanted, settings.max_gap)
     time = markers.time[span]
     notes = unit_notes + [
         f"marker {g.marker} missing at the {'start' if g.start <= markers.time[0] else 'end'} "
@@ -467,9 +494,15 @@ def process_lab(
             + GRF_COLUMNS
         ),
     )[list(SIGNAL_COLUMNS)]
+    vertical = {side: loads[side]["smooth"][:, 1] for side in SIDES}
+    evidence = threshold_problems(settings.strike_threshold, vertical)
+    evidence += belt_problems(
+        {side: smooth[ms.marker(side, "heel")] for side in SIDES}, vertical, fs, belt
+    )
+    if evidence:
+        raise LabFileError("lab record", evidence)
     strikes = {
-        side: detect_heel_strikes(time, loads[side]["smooth"][:, 1], settings.strike_threshold)
-        for side in SIDES
+        side: detect_heel_strikes(time, vertical[side], settings.strike_threshold) for side in SIDES
     }
     length_problems, lengths, length_notes = _segment_lengths(smooth, ms, params)
     if length_problems:
@@ -536,7 +569,8 @@ def _plate_side_problems(markers: LabExport, plates: LabExport, ms: MarkerSet) -
                 f"under the {side} foot's markers"
                 for name, side in wrong.items()
             )
-            + f" (--plates {','.join(f'{s}={n}' for s, n in ms.plates.items())}): swap them"
+            + f" (--plates {','.join(f'{s}={n}' for s, n in ms.plates.items())}): the plates "
+            "or the markers' sides are swapped"
         )
     return problems
 
