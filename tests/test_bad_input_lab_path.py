@@ -10,6 +10,7 @@ import threading
 import time
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from colloc.batch.cluster import SchedulerError, dask_client
@@ -81,3 +82,86 @@ def test_the_command_names_the_flag_for_a_shared_plate(tmp_path, capsys):
     assert (
         "--prefixes/--plates: plates: expected a different one per side" in capsys.readouterr().err
     )
+
+
+def test_fill_gaps_names_every_bad_argument():
+    from colloc.lab import fill_gaps
+
+    good = np.arange(10) / 100.0
+    cases = [
+        (good[::-1], {"A": np.zeros((10, 2))}, "time: not strictly increasing at sample 1"),
+        (np.r_[good[:5], np.nan, good[6:]], {"A": np.zeros((10, 2))}, "time: 1 NaN or infinite"),
+        (good, {"A": np.zeros((10, 3))}, "marker A: expected shape \\(N, 2\\)"),
+        (
+            good,
+            {"A": np.zeros((8, 2))},
+            "marker A: 8 samples, expected one per time stamp \\(10\\)",
+        ),
+        (
+            good,
+            {"A": np.r_[np.zeros((3, 2)), [[np.inf, 0.0]], np.zeros((6, 2))]},
+            "marker A: infinite at sample 3",
+        ),
+    ]
+    for stamps, markers, message in cases:
+        with pytest.raises(ValueError, match=message):
+            fill_gaps(stamps, markers)
+
+
+def test_a_lab_export_in_memory_is_checked_when_made():
+    from colloc.lab import LabExport, LabFileError
+
+    stamps = np.arange(10) / 100.0
+    with pytest.raises(LabFileError, match="time: not strictly increasing"):
+        LabExport(stamps[::-1], {}, {})
+    with pytest.raises(LabFileError, match="marker RLEK: infinite at sample 2"):
+        LabExport(stamps, {"RLEK": np.r_[np.zeros((2, 2)), [[np.inf, 1]], np.zeros((7, 2))]}, {})
+    with pytest.raises(LabFileError, match="plate FP1: NaN or infinite at sample 0"):
+        LabExport(stamps, {}, {"FP1": np.r_[[[np.nan, 0, 0]], np.zeros((9, 3))]})
+    with pytest.raises(LabFileError, match=r"marker RLEK: expected shape \(10, 2\), found \(10,\)"):
+        LabExport(stamps, {"RLEK": np.zeros(10)}, {})
+
+
+def test_the_library_names_arguments_of_the_wrong_kind(tmp_path):
+    from colloc.lab import LabSettings, process_lab, read_lab_export, trial_from_lab
+
+    export = tmp_path / "x.tsv"
+    export.write_text("time\tA.PosX\tA.PosY\n0\t0\t1\n0.01\t0\t1\n")
+    with pytest.raises(TypeError, match="settings: expected LabSettings"):
+        trial_from_lab(export, {"body_mass": 70})
+    with pytest.raises(TypeError, match="settings: expected LabSettings.*found NoneType"):
+        trial_from_lab(export, None)
+    settings = LabSettings(70.0, 1.7, belt_speed=1.0)
+    with pytest.raises(TypeError, match="markers_file: expected a file path, found int 3"):
+        trial_from_lab(3, settings)
+    with pytest.raises(TypeError, match="markers, forces: expected LabExport"):
+        process_lab(None, settings)
+    with pytest.raises(
+        TypeError, match="names: expected a sequence of column names, found the string"
+    ):
+        read_lab_export(export, names="time,A.PosX")
+    for tolerance in (float("nan"), -1):
+        with pytest.raises(
+            ValueError, match="sampling_tolerance: expected a fraction in \\[0, 1\\)"
+        ):
+            read_lab_export(export, sampling_tolerance=tolerance)
+    assert (
+        LabSettings(70.0, 1.7, belt_speed=1.0, max_gap=1e9)
+        .problems()[0]
+        .startswith("max_gap: expected seconds from 0 to 1")
+    )
+
+
+def test_a_repeated_column_and_stamps_in_milliseconds_are_named(tmp_path):
+    from colloc.lab import LabFileError, read_lab_export
+
+    repeated = tmp_path / "repeated.tsv"
+    repeated.write_text("time\tRLEK.PosX\tRLEK.PosY\tRLEK.PosX\n0\t1\t2\t3\n0.01\t1\t2\t3\n")
+    with pytest.raises(LabFileError, match="column names repeated: RLEK.PosX"):
+        read_lab_export(repeated)
+    milliseconds = tmp_path / "ms.tsv"
+    milliseconds.write_text(
+        "time\tA.PosX\tA.PosY\n" + "".join(f"{10 * k}\t0\t1\n" for k in range(20))
+    )
+    with pytest.raises(LabFileError, match="time stamps in milliseconds"):
+        read_lab_export(milliseconds)

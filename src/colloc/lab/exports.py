@@ -37,6 +37,10 @@ _IGNORED_MARKER_AXES: tuple[str, ...] = ("PosZ",)
 PLATE_CHANNELS: tuple[str, ...] = ("ForX", "ForY", "MomZ")
 
 
+#: A time step [s] no lab instrument takes (a rate of 2 Hz): stamps in milliseconds.
+MAX_TIME_STEP = 0.5
+
+
 class LabFileError(TrialError):
     """A lab export cannot be used as it is; ``problems`` lists every problem found."""
 
@@ -65,6 +69,35 @@ class LabExport:
     plates: dict[str, np.ndarray]
     columns: dict[str, np.ndarray] = field(default_factory=dict)
     source: str = ""
+
+    def __post_init__(self) -> None:
+        problems = []
+        time = np.asarray(self.time, dtype=float)
+        if time.ndim != 1 or time.size < 2:
+            problems.append(f"time: expected 2 or more stamps, found shape {time.shape}")
+        elif not np.all(np.isfinite(time)):
+            problems.append(f"time: {int((~np.isfinite(time)).sum())} NaN or infinite stamps")
+        elif np.any(np.diff(time) <= 0):
+            row = int(np.argmax(np.diff(time) <= 0)) + 1
+            problems.append(f"time: not strictly increasing at sample {row}")
+        for kind, items, width in (("marker", self.markers, 2), ("plate", self.plates, 3)):
+            for name, values in items.items():
+                array = np.asarray(values, dtype=float)
+                if array.shape != (time.size, width):
+                    problems.append(
+                        f"{kind} {name}: expected shape ({time.size}, {width}), found {array.shape}"
+                    )
+                    continue
+                bad = np.isinf(array) if kind == "marker" else ~np.isfinite(array)
+                if bad.any():
+                    row = int(np.argmax(bad.any(axis=1)))
+                    what = "infinite" if kind == "marker" else "NaN or infinite"
+                    problems.append(
+                        f"{kind} {name}: {what} at sample {row} (t = {time[row]:g} s)"
+                        + ("; a missing sample is NaN" if kind == "marker" else "")
+                    )
+        if problems:
+            raise LabFileError(self.source or "lab export", problems)
 
     @property
     def sample_rate(self) -> float:
@@ -112,11 +145,23 @@ def read_lab_export(
         ``names`` not matching the number of columns.
     """
     path = Path(path)
+    if not (
+        isinstance(sampling_tolerance, int | float)
+        and np.isfinite(sampling_tolerance)
+        and 0 <= sampling_tolerance < 1
+    ):
+        raise ValueError(
+            f"sampling_tolerance: expected a fraction in [0, 1), found {sampling_tolerance!r}"
+        )
+    if isinstance(names, str):
+        raise TypeError(f"names: expected a sequence of column names, found the string {names!r}")
     frame = _read(path, names)
     problems: list[str] = []
     header = [str(name).strip().lstrip("%#").strip() for name in frame.columns]
     frame.columns = header
-    duplicated = sorted({name for name in header if header.count(name) > 1})
+    # pandas renames a repeated name (RLEK.PosX.1): the file's own header line says
+    written = header if names else _header_line(path)
+    duplicated = sorted({name for name in written if written.count(name) > 1})
     if duplicated:
         raise LabFileError(str(path), [f"column names repeated: {', '.join(duplicated)}"])
     values = _numbers(frame, problems)
@@ -198,6 +243,14 @@ def _read(path: Path, names: Sequence[str] | None) -> pd.DataFrame:
     return frame
 
 
+def _header_line(path: Path) -> list[str]:
+    """The column names as the file's first line writes them."""
+    delimiter = detect_delimiter(path)
+    with open(path, encoding="utf-8-sig") as stream:
+        line = stream.readline().rstrip("\r\n")
+    return [name.strip().lstrip("%#").strip() for name in line.split(delimiter)]
+
+
 def _is_number(text: str) -> bool:
     try:
         float(text)
@@ -275,6 +328,12 @@ def _time_problems(time: np.ndarray, tolerance: float) -> list[str]:
             f"time: not strictly increasing at row {row + 1} ({time[row - 1]:g} -> {time[row]:g} s)"
         ]
     median = float(np.median(step))
+    if median >= MAX_TIME_STEP:
+        return [
+            f"time: {median:g} between samples, a rate of {1 / median:.3g} Hz; motion capture "
+            f"and force plates sample at 50 Hz or more: are the time stamps in milliseconds? "
+            "(expected seconds)"
+        ]
     uneven = np.abs(step - median) > tolerance * median
     if uneven.any():
         row = int(np.argmax(uneven)) + 1

@@ -106,6 +106,7 @@ def fill_gaps(
     if not (isinstance(max_gap, int | float) and np.isfinite(max_gap) and max_gap >= 0):
         raise ValueError(f"max_gap: expected a non-negative number of seconds, found {max_gap!r}")
     time = np.asarray(time, dtype=float)
+    _check_inputs(time, markers)
     problems: list[str] = []
     filled: dict[str, np.ndarray] = {}
     gaps: list[Gap] = []
@@ -150,3 +151,35 @@ def fill_gaps(
             ],
         )
     return filled, gaps, slice(first, last + 1)
+
+
+def _check_inputs(time: np.ndarray, markers: Mapping[str, np.ndarray]) -> None:
+    """Every problem of ``fill_gaps``' arguments at once (a ValueError naming each)."""
+    problems = []
+    if time.ndim != 1 or time.size < 2:
+        problems.append(
+            f"time: expected a 1-D array of 2 or more samples, found shape {time.shape}"
+        )
+    elif not np.all(np.isfinite(time)):
+        problems.append(f"time: {int((~np.isfinite(time)).sum())} NaN or infinite stamps")
+    elif np.any(np.diff(time) <= 0):
+        row = int(np.argmax(np.diff(time) <= 0)) + 1
+        problems.append(f"time: not strictly increasing at sample {row}")
+    for name, xy in markers.items():
+        array = np.asarray(xy, dtype=float)
+        if array.ndim != 2 or array.shape[1] != 2:
+            problems.append(
+                f"marker {name}: expected shape (N, 2) (forward, up), found {array.shape}"
+            )
+        elif array.shape[0] != time.size:
+            problems.append(
+                f"marker {name}: {array.shape[0]} samples, expected one per time stamp ({time.size})"
+            )
+        elif np.isinf(array).any():
+            row = int(np.argmax(np.isinf(array).any(axis=1)))
+            problems.append(
+                f"marker {name}: infinite at sample {row} (t = {time[row]:g} s); a missing sample "
+                "is NaN"
+            )
+    if problems:
+        raise ValueError("fill_gaps: " + "; ".join(problems))

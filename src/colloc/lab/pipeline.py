@@ -88,6 +88,9 @@ LENGTH_NOTE_FRACTION = 0.15
 
 _MAD_TO_SD = 1.4826
 
+#: Longest gap [s] a spline may fill: about a stride's swing phase.
+MAX_GAP_LIMIT = 1.0
+
 #: Lowest accepted filter cut-off [Hz].
 MIN_CUTOFF_HZ = 1.0
 
@@ -144,9 +147,10 @@ class LabSettings:
                 out.append(
                     f"{name}: expected a number of {unit} in ({low:g}, {high:g}), found {value!r}"
                 )
-        if not (_real(self.max_gap) and self.max_gap >= 0):
+        if not (_real(self.max_gap) and 0 <= self.max_gap <= MAX_GAP_LIMIT):
             out.append(
-                f"max_gap: expected a non-negative number of seconds, found {self.max_gap!r}"
+                f"max_gap: expected seconds from 0 to {MAX_GAP_LIMIT:g} (a spline across a "
+                f"longer gap invents a step), found {self.max_gap!r}"
             )
         speed = self.belt_speed
         if _real(speed) and math.isfinite(float(speed)) and float(speed) < 0:
@@ -237,6 +241,7 @@ def trial_from_lab(
         than ``max_gap``, markers whose distance jumps (swapped markers), plates under the
         wrong foot, too short a record.
     """
+    _check_types(settings, markers_file=markers_file, forces_file=forces_file, static=static)
     problems = settings.problems()
     read: list[LabExport | LabRecord] = []
     for path, header, grf in ((markers_file, names, None), (forces_file, force_names, mapping)):
@@ -289,6 +294,20 @@ def trial_from_lab(
         sources["static"] = _file_record(static)
     result.trial.metadata["lab"]["sources"] = sources
     return result
+
+
+def _check_types(settings: Any, **paths: Any) -> None:
+    """A TypeError naming an argument of the wrong kind (before any file is opened)."""
+    if not isinstance(settings, LabSettings):
+        raise TypeError(
+            f"settings: expected LabSettings(body_mass, height, belt_speed=...), found "
+            f"{type(settings).__name__}"
+        )
+    for name, value in paths.items():
+        if value is not None and not isinstance(value, str | os.PathLike):
+            raise TypeError(f"{name}: expected a file path, found {type(value).__name__} {value!r}")
+    if paths and paths.get("markers_file") is None:
+        raise TypeError("markers_file: expected a file path, found None")
 
 
 def _planar(
@@ -388,6 +407,10 @@ def process_lab(
     ValueError
         As :func:`trial_from_lab`, every problem at once.
     """
+    if not isinstance(markers, LabExport) or not (forces is None or isinstance(forces, LabExport)):
+        found = type(markers if not isinstance(markers, LabExport) else forces).__name__
+        raise TypeError(f"markers, forces: expected LabExport (read_lab_export), found {found}")
+    _check_types(settings)
     problems = settings.problems()
     ms = settings.marker_set
     needed = [ms.marker(side, landmark) for side in SIDES for landmark in LANDMARKS]
