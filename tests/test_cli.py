@@ -79,6 +79,11 @@ def run_cli(argv, capsys):
         (["--scheme", "bogus"], r"scheme: expected one of \[.*'midpoint'.*found 'bogus'"),
         (["--hessian", "bogus"], r"hessian: expected 'exact' or 'limited-memory'"),
         (["-r", "--noise-std", "-1"], r"noise_std_deg: expected a finite number >= 0, found -1"),
+        # iterated past 45 s before: a noise that buries the motion is refused
+        (
+            ["-r", "--noise-std", "1e6"],
+            r"noise_std_deg \(--noise-std\): expected at most 90 degrees",
+        ),
         # Found by these tests: inf gave an OverflowError traceback, and a negative seed
         # failed in numpy after the database was created, without naming the flag.
         (["-s", "inf"], r"sample_rate \(-s\): expected a positive"),

@@ -244,3 +244,15 @@ def test_a_record_too_short_says_how_long_a_record_is_needed(tmp_path):
     width = int(message.split(" samples in the fit")[0].split()[-1]) // 20
     needed = max(max(2 * stride, width * 20 / 100.0) / 0.6, 3 * stride)
     assert f"at least {needed:.0f} s of walking at {stride:.2f} s a stride and 100 Hz" in message
+
+
+def test_a_missed_heel_strike_is_named(tmp_path):
+    trial = copy_fixture(tmp_path)
+    events = pd.read_csv(trial / "events.csv")
+    right = events[events["side"] == "right"]
+    dropped = right.index[4]
+    events.drop(index=dropped).to_csv(trial / "events.csv", index=False)
+    message = read_error(trial, fit_fraction=0.6)
+    before, after = right["time"].iloc[3], right["time"].iloc[5]
+    assert "events: 1 stride(s) between right heel strikes last more than 1.6 times" in message
+    assert f"{before:.2f}-{after:.2f} s" in message and "a strike was missed" in message

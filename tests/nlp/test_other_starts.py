@@ -67,9 +67,14 @@ def test_a_disturbance_the_model_misses_is_not_called_a_local_optimum():
 def test_bad_options_are_named():
     problem, solution = fit(data(0.0), 3.0)
     for kwargs, message in (
-        ({"count": 0}, "count: expected a whole number >= 1"),
-        ({"spread": -1.0}, "spread: expected a positive number"),
+        ({"count": 0}, "count: expected a whole number from 1 to 100"),
+        # 10**9 ran on with no end, 1e6 overflowed: both are refused before any solve
+        ({"count": 10**9}, "count: expected a whole number from 1 to 100"),
+        ({"spread": -1.0}, r"spread: expected a number in \(0, 10\]"),
+        ({"spread": 1e6}, r"spread: expected a number in \(0, 10\]"),
         ({"seed": -2}, "seed: expected an integer >= 0"),
     ):
         with pytest.raises(ValueError, match=message):
             other_starts(problem, solution, **kwargs)
+    with pytest.raises(TypeError, match="problem: expected a Problem \\(for several trials"):
+        other_starts([problem], solution)

@@ -316,7 +316,11 @@ def test_trials_and_their_errors_refuse_what_they_cannot_take():
     alone = a.solve(guess(a, d0, t0), **QUIET)
     with pytest.raises(ValueError, match="not a solve of this problem"):
         parameter_uncertainty(trials, alone)
-    with pytest.raises(ValueError, match="with 2 trials, expected"):
+    # a flat list reads like the one-trial form: the message says how the trials' differs
+    with pytest.raises(
+        ValueError,
+        match=r"with 2 trials, expected .*a flat list of numbers is one trial's first nodes",
+    ):
         parameter_uncertainty(trials, solution, method="sandwich", blocks=[0, 50])
     with pytest.raises(ValueError, match=r"blocks\[1\]: first node 400 is beyond"):
         parameter_uncertainty(trials, solution, method="sandwich", blocks=[[0], [0, 400]])

@@ -101,6 +101,8 @@ def read_gait_data(settings: GaitIdentifySettings) -> GaitData:
     strikes = trial.right_heel_strikes
     if strikes.size < MIN_RIGHT_STRIKES:
         problems.append(_too_short(trial, settings, points, len(feedback)))
+    else:
+        problems += _missed_strikes(strikes)
     if problems:
         raise ValueError("colloc gait identify: " + "; ".join(problems))
 
@@ -143,6 +145,29 @@ def read_gait_data(settings: GaitIdentifySettings) -> GaitData:
 MIN_RIGHT_STRIKES = 4
 #: A walking stride [s] assumed when a trial has too few strikes to measure its own.
 TYPICAL_STRIDE = 1.1
+
+
+#: A stride this many times the median is one with a heel strike missed.
+MISSED_STRIKE_RATIO = 1.6
+
+
+def _missed_strikes(strikes: np.ndarray) -> list[str]:
+    """Strides so long that a right heel strike between them was missed: the phase, reset at
+    each strike, would run through two strides as one."""
+    strides = np.diff(strikes)
+    median = float(np.median(strides))
+    long = np.flatnonzero(strides > MISSED_STRIKE_RATIO * median)
+    if long.size == 0:
+        return []
+    shown = ", ".join(
+        f"{strikes[k]:.2f}-{strikes[k + 1]:.2f} s ({strides[k]:.2f} s)" for k in long[:3]
+    )
+    more = f" and {long.size - 3} more" if long.size > 3 else ""
+    return [
+        f"events: {long.size} stride(s) between right heel strikes last more than "
+        f"{MISSED_STRIKE_RATIO:g} times the median {median:.2f} s: {shown}{more}; a strike was "
+        "missed there (add it to events.csv, or cut the trial)"
+    ]
 
 
 def _too_short(trial: Trial, settings: GaitIdentifySettings, points: int, states: int) -> str:

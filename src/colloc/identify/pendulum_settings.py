@@ -29,6 +29,10 @@ SECONDS_PER_FACTOR_ENTRY = 1.0 / (6001 * 4 * (2 * 4 + 4))
 LONG_RUN_SECONDS = 60.0
 #: Cart force amplitudes above this make the simulation crawl (1e300 N never ended).
 MAX_FORCE_AMPLITUDE = 1e6
+#: Largest angle noise [deg] accepted: a quarter turn, the spread of the links' own motion
+#: under the default excitation (34-52 degrees on 1 and 2 links); --noise-std 1e6 iterated
+#: without end.
+MAX_NOISE_STD_DEG = 90.0
 
 
 @dataclass(frozen=True)
@@ -170,6 +174,12 @@ class PendulumSettings:
             value = getattr(self, name)
             if not (isinstance(value, int | float) and np.isfinite(value) and value >= 0):
                 out.append(f"{name}: expected a finite number >= 0, found {value!r}")
+        if _finite(self.noise_std_deg) and self.noise_std_deg > MAX_NOISE_STD_DEG:
+            out.append(
+                f"noise_std_deg (--noise-std): expected at most {MAX_NOISE_STD_DEG:g} degrees "
+                f"(a quarter turn; beyond, the noise buries the links' motion and the fit only "
+                f"wanders), found {self.noise_std_deg!r}"
+            )
         if _finite(self.force_amplitude) and self.force_amplitude > MAX_FORCE_AMPLITUDE:
             out.append(
                 f"force_amplitude (--amplitude): expected at most {MAX_FORCE_AMPLITUDE:g} N "

@@ -13,8 +13,9 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from colloc.nlp.problem import Problem
+
 if TYPE_CHECKING:
-    from colloc.nlp.problem import Problem
     from colloc.nlp.solution import Solution
 
 #: Relative objective decrease that counts as a better optimum (IPOPT's tolerance leaves
@@ -48,6 +49,12 @@ class StartsReport:
     objectives: list[float]
     parameters: list[dict[Any, float]]
     note: str
+
+
+#: Most starts one call runs (each is a whole solve; 10**9 ran on with no end in sight).
+MAX_STARTS = 100
+#: Largest log-scale scatter (e^10 either way already spans nine decades; 1e6 overflowed).
+MAX_SPREAD = 10.0
 
 
 def other_starts(
@@ -84,14 +91,27 @@ def other_starts(
 
     Raises
     ------
+    TypeError
+        When ``problem`` is not a :class:`Problem` (e.g. several trials).
     ValueError
         When ``count``, ``spread`` or ``seed`` is not usable, or the problem has no unknown
         parameters to scatter.
     """
-    if isinstance(count, bool) or not isinstance(count, int) or count < 1:
-        raise ValueError(f"count: expected a whole number >= 1, found {count!r}")
-    if not (isinstance(spread, int | float) and np.isfinite(spread) and spread > 0):
-        raise ValueError(f"spread: expected a positive number, found {spread!r}")
+    if not isinstance(problem, Problem):
+        raise TypeError(
+            f"problem: expected a Problem (for several trials, call other_starts on each "
+            f"trial's problem), found {type(problem).__name__}"
+        )
+    if isinstance(count, bool) or not isinstance(count, int) or not 1 <= count <= MAX_STARTS:
+        raise ValueError(
+            f"count: expected a whole number from 1 to {MAX_STARTS} (each start is a whole "
+            f"solve), found {count!r}"
+        )
+    if not (isinstance(spread, int | float) and np.isfinite(spread) and 0 < spread <= MAX_SPREAD):
+        raise ValueError(
+            f"spread: expected a number in (0, {MAX_SPREAD:g}] (a log-scale scatter: "
+            f"{MAX_SPREAD:g} is a factor of e^{MAX_SPREAD:g} either way), found {spread!r}"
+        )
     if isinstance(seed, bool) or not isinstance(seed, int) or seed < 0:
         raise ValueError(f"seed: expected an integer >= 0, found {seed!r}")
     lay = problem.layout

@@ -521,9 +521,16 @@ def _trial_block_starts(
         or not isinstance(blocks, Sequence)
         or len(blocks) != len(sizes)
     ):
+        hint = (
+            f" (a flat list of numbers is one trial's first nodes; for {len(sizes)} trials give "
+            f"one number for all, e.g. blocks=4, or a list of {len(sizes)} lists, e.g. "
+            f"blocks=[[0, 50], [0, 40], ...])"
+            if flat
+            else ""
+        )
         raise ValueError(
-            f"blocks: with {len(sizes)} trials, expected a number of blocks per trial or one "
-            f"sequence of first nodes per trial, found {blocks!r}"
+            f"blocks: with {len(sizes)} trials, expected one number of blocks for every trial "
+            f"or one sequence of first nodes per trial, found {blocks!r}{hint}"
         )
     out = []
     for k, (own, N) in enumerate(zip(blocks, sizes, strict=True)):
