@@ -495,3 +495,40 @@ def test_a_long_gait_simulation_is_announced_with_an_estimate(tmp_path, monkeypa
     assert code == 130
     assert re.search(r"this will take a while: about [3-6] min", out)
     assert "480 s of walking, 4.8e+04 samples" in out
+
+
+def test_runs_list_shows_each_kind_in_its_own_columns(tmp_path, capsys):
+    """Gait runs were shown in the pendulum's columns (num_links NaN, a max_rel_error of
+    62206 from gains near zero)."""
+    from colloc.store import ParameterRow, RunRecord, RunStore
+
+    db = f"sqlite:///{tmp_path / 'runs.db'}"
+    with RunStore(db) as store:
+        store.add(
+            RunRecord(
+                "p1", "pendulum", {"num_links": 1, "scheme": "midpoint"}, {},
+                statistics={"success": True, "iterations": 4},
+                parameters=[ParameterRow("k0", 2.0, 2.1, 0.1)],
+            )
+        )  # fmt: skip
+        store.add(
+            RunRecord(
+                "g1", "gait", {"trial": "trials/a", "method": "smoother", "points": 20}, {},
+                statistics={"success": True, "K_relative_error": 0.31, "validation": {"walks": True}},
+                parameters=[ParameterRow("K[0][hip][x]", 1e-9, 6.2e-5, 1.0)],
+            )
+        )  # fmt: skip
+    code, out, _ = run_cli(["runs", "list", "--db", db], capsys)
+    assert code == 0
+    pendulum, gait = out.split("\n\n")
+    assert (
+        pendulum.startswith("pendulum runs:")
+        and "num_links" in pendulum
+        and "max_rel_error" in pendulum
+    )
+    assert (
+        gait.startswith("gait runs:") and "K_relative_error" in gait and "validation.walks" in gait
+    )
+    assert (
+        "num_links" not in gait and "max_rel_error" not in gait and "62" not in gait.split("\n")[2]
+    )

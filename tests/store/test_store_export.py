@@ -129,10 +129,23 @@ def test_csv_refuses_arrays_it_cannot_hold_and_writes_nothing(tmp_path):
         )
         with pytest.raises(ExportError, match="format: 'csv' cannot hold this run; use 'npz'") as e:
             store.export("r", tmp_path / "out")
-        assert "arrays['cube']" in str(e.value) and "arrays['waves']" in str(e.value)
+        assert "arrays['waves']" in str(e.value) and "cube" not in str(e.value)
         assert not (tmp_path / "out").exists()
         with zipfile.ZipFile(store.export("r", tmp_path, format="npz")[0]) as archive:
             assert sorted(archive.namelist()) == ["cube.npy", "waves.npy"]
+
+
+def test_csv_writes_an_array_of_three_dimensions_a_row_per_first_index(tmp_path):
+    """A gait run's gains K (P x 6 x n_s) went unexported with the default format."""
+    cube = np.arange(24.0).reshape(2, 3, 4)
+    with RunStore("sqlite://") as store:
+        store.add(RunRecord("g", "gait", {}, {}, arrays={"K": cube}))
+        written = store.export("g", tmp_path)
+    frame = pd.read_csv(tmp_path / "K.csv")
+    assert list(frame.columns)[:5] == ["K_0_0", "K_0_1", "K_0_2", "K_0_3", "K_1_0"]
+    np.testing.assert_array_equal(frame.to_numpy().reshape(2, 3, 4), cube)
+    layout = json.loads((tmp_path / "metadata.json").read_text())["arrays"]["K"]
+    assert layout["shape"] == [2, 3, 4] and tmp_path / "K.csv" in written
 
 
 def test_unknown_format(store, tmp_path):

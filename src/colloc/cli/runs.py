@@ -53,12 +53,10 @@ def run(args: argparse.Namespace) -> int:
         if frame.empty and args.kind is not None:
             kinds = sorted(set(store.list()["kind"]))
             print(f"no runs of kind {args.kind!r} stored (kinds stored: {kinds})")
+        elif frame.empty:
+            print("no runs stored")
         else:
-            print(
-                "no runs stored"
-                if frame.empty
-                else frame.dropna(axis=1, how="all").to_string(index=False)
-            )
+            print(_tables(store, frame, args.batch))
     elif args.runs_command == "show":
         print(store.get(args.run_id).summary())
     elif args.runs_command == "export":
@@ -70,3 +68,21 @@ def run(args: argparse.Namespace) -> int:
     elif args.runs_command == "delete":
         print(f"deleted {store.delete(args.run_id)}")
     return 0
+
+
+def _tables(store: Any, frame: Any, batch: str | None) -> str:
+    """One table per kind of run, each with its kind's own columns (KIND_COLUMNS)."""
+    from colloc.store.runs import KIND_COLUMNS
+
+    parts = []
+    for kind in dict.fromkeys(frame["kind"]):
+        if kind in KIND_COLUMNS:
+            settings, statistics, relative = KIND_COLUMNS[kind]
+            table = store.list(settings, statistics, kind=kind, batch=batch)
+            if not relative:
+                table = table.drop(columns=["max_rel_error"])
+        else:
+            table = frame[frame["kind"] == kind]
+        shown = table.dropna(axis=1, how="all").to_string(index=False)
+        parts.append(f"{kind} runs:\n{shown}" if frame["kind"].nunique() > 1 else shown)
+    return "\n\n".join(parts)

@@ -129,9 +129,13 @@ def _json_writer(document: dict[str, Any]) -> Writer:
 
 
 def _csv_columns(name: str, array: np.ndarray) -> tuple[np.ndarray, list[str]]:
+    """A table of ``array``: one row per index of its first axis, one column per index of
+    the others (``K_3_11`` is ``K[:, 3, 11]``); ``metadata.json`` keeps the shape."""
     if array.ndim < 2:
         return array.reshape(-1, 1), [name]
-    return array, [f"{name}_{j}" for j in range(array.shape[1])]
+    rest = array.shape[1:]
+    columns = [f"{name}_{'_'.join(map(str, index))}" for index in np.ndindex(*rest)]
+    return array.reshape(array.shape[0], -1), columns
 
 
 def _frame_writer(frame: pd.DataFrame) -> Writer:
@@ -157,14 +161,15 @@ def csv_files(record: RunRecord) -> dict[str, Writer]:
     Raises
     ------
     ExportError
-        Listing every array that CSV cannot hold (more than 2 dimensions, complex or
-        other non-plain dtypes); use ``format="npz"`` for those.
+        Listing every array that CSV cannot hold (complex or other non-plain dtypes); use
+        ``format="npz"`` for those. Arrays of more than two dimensions are written one row
+        per index of their first axis (the shape is in ``metadata.json``).
     """
     problems = [
-        f"arrays[{name!r}]: CSV holds arrays of at most 2 dimensions with numeric, bool or "
-        f"string values, found shape {array.shape} and dtype {array.dtype}"
+        f"arrays[{name!r}]: CSV holds numeric, bool or string values, found dtype "
+        f"{array.dtype} (shape {array.shape})"
         for name, array in record.arrays.items()
-        if array.ndim > 2 or array.dtype.kind not in _CSV_KINDS
+        if array.dtype.kind not in _CSV_KINDS
     ]
     if problems:
         raise ExportError(

@@ -44,6 +44,24 @@ from colloc.store.url import DEFAULT_URL
 DEFAULT_SETTING_COLUMNS = ("num_links", "scheme", "num_nodes", "duration", "sample_rate")
 #: Solver statistics shown by :meth:`RunStore.list`.
 DEFAULT_STATISTIC_COLUMNS = ("success", "iterations", "objective", "solve_time")
+#: Columns :meth:`RunStore.list` shows for a kind of run: (settings, statistics, whether the
+#: largest relative parameter error means anything). A gait run's entries of K include gains
+#: near zero, whose relative errors are meaningless; its own summary errors are shown instead.
+KIND_COLUMNS: dict[str, tuple[tuple[str, ...], tuple[str, ...], bool]] = {
+    "pendulum": (DEFAULT_SETTING_COLUMNS, DEFAULT_STATISTIC_COLUMNS, True),
+    "gait": (
+        ("trial", "method", "points", "fit_fraction"),
+        (
+            "success",
+            "iterations",
+            "K_relative_error",
+            "Tstar_relative_error",
+            "fraction_within_3se",
+            "validation.walks",
+        ),
+        False,
+    ),
+}
 
 
 def _require_existing_file(parsed: Any, url: str) -> None:
