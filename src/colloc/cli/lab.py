@@ -172,7 +172,7 @@ def trial_from_lab_checks(args: argparse.Namespace) -> tuple[Any, list[str]]:
     problems : list of str
     """
     from colloc.lab.markers import LANDMARKS, MarkerSet
-    from colloc.lab.pipeline import LabSettings
+    from colloc.lab.settings import LabSettings
 
     problems = []
     names: dict[str, Any] = dict(args.marker_names or {})
@@ -273,7 +273,7 @@ def _inside(path: Path, folder: Path) -> bool:
 def run(args: argparse.Namespace) -> int:
     """``colloc gait trial-from-lab``: check, process, write, report."""
     from colloc.lab.exports import LabFileError
-    from colloc.lab.pipeline import trial_from_lab
+    from colloc.lab.from_files import trial_from_lab
 
     settings, problems = trial_from_lab_checks(args)
     if report_problems(COMMAND, problems):

@@ -44,9 +44,9 @@ _EXPORTS = {
     "DEFAULT_MARKER_SET": "colloc.lab.markers",
     "MarkerSet": "colloc.lab.markers",
     "LabResult": "colloc.lab.pipeline",
-    "LabSettings": "colloc.lab.pipeline",
+    "LabSettings": "colloc.lab.settings",
     "process_lab": "colloc.lab.pipeline",
-    "trial_from_lab": "colloc.lab.pipeline",
+    "trial_from_lab": "colloc.lab.from_files",
     "LabNoise": "colloc.lab.synthetic",
     "lab_export_from_record": "colloc.lab.synthetic",
     "write_lab_export": "colloc.lab.synthetic",
@@ -59,6 +59,7 @@ if TYPE_CHECKING:  # for type checkers; re-exported through __all__
     from colloc.lab.dynamics import JointLoads, LegInertia, leg_inverse_dynamics
     from colloc.lab.exports import LabExport, LabFileError, read_lab_export
     from colloc.lab.formats import lab_file_format, read_lab_file
+    from colloc.lab.from_files import trial_from_lab
     from colloc.lab.gaps import Gap, fill_gaps
     from colloc.lab.kinematics import (
         LEG2D_SIGNS,
@@ -68,9 +69,10 @@ if TYPE_CHECKING:  # for type checkers; re-exported through __all__
         segment_orientations,
     )
     from colloc.lab.markers import DEFAULT_MARKER_SET, MarkerSet
-    from colloc.lab.pipeline import LabResult, LabSettings, process_lab, trial_from_lab
+    from colloc.lab.pipeline import LabResult, process_lab
     from colloc.lab.record import LabRecord, PlateSeries
     from colloc.lab.sagittal import SagittalPlane, find_plane, sagittal_exports
+    from colloc.lab.settings import LabSettings
     from colloc.lab.synthetic import LabNoise, lab_export_from_record, write_lab_export
     from colloc.lab.writers import write_lab_files
 

@@ -1,0 +1,212 @@
+"""The lab's files to a trial: read each (any format), find the landmarks and the sagittal
+plane, then :func:`colloc.lab.pipeline.process_lab`."""
+
+from __future__ import annotations
+
+import hashlib
+import os
+from collections.abc import Sequence
+from dataclasses import replace
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from colloc.data.columns import SIDES
+from colloc.gait.strikes import UNLOADED_FORCE
+from colloc.lab.exports import LabExport, LabFileError
+from colloc.lab.formats import read_lab_file
+from colloc.lab.landmarks import landmark_record
+from colloc.lab.markers import DEFAULT_MARKER_SET, LANDMARKS, MarkerSet
+from colloc.lab.pipeline import LabResult, process_lab
+from colloc.lab.record import LabRecord, PlateSeries
+from colloc.lab.sagittal import sagittal_exports
+from colloc.lab.settings import LabSettings, check_settings
+
+
+def trial_from_lab(
+    markers_file: str | os.PathLike[str],
+    settings: LabSettings,
+    forces_file: str | os.PathLike[str] | None = None,
+    *,
+    names: Sequence[str] | None = None,
+    force_names: Sequence[str] | None = None,
+    mapping: str | os.PathLike[str] | None = None,
+    forward: str | None = None,
+    static: str | os.PathLike[str] | None = None,
+) -> LabResult:
+    """Read a lab's files and make a gait trial of them.
+
+    Parameters
+    ----------
+    markers_file : path-like
+        The motion capture: a C3D (it may hold the plates too), an OpenSim TRC, or a tab
+        export (which may hold the plates too); the format is read from the content
+        (:func:`colloc.lab.formats.read_lab_file`).
+    settings : LabSettings
+    forces_file : path-like, optional
+        The force plates, if separate: a MOT/STO, a C3D or a tab export; its time stamps may
+        differ from the markers' (the filtered plate signals are then interpolated onto the
+        marker times).
+    names, force_names : sequence of str, optional
+        Column names of header-less tab exports.
+    mapping : path-like, optional
+        OpenSim's ``_grf.xml`` naming the foot of each plate of a MOT/STO.
+    forward : str, optional
+        The walking direction in a 3-D file's axes (``"+x"``, ``"-z"``, ...); by default found
+        from the markers (:func:`colloc.lab.sagittal.find_plane`).
+    static : path-like, optional
+        The standing trial (TRC or C3D): the landmarks the walk does not mark (epicondyles,
+        malleoli) are taken from it and carried by their segments' clusters
+        (:mod:`colloc.lab.landmarks`); what was taken is in the trial's metadata.
+
+    Returns
+    -------
+    LabResult
+
+    Raises
+    ------
+    ValueError
+        Every problem found at once: invalid settings, unreadable files
+        (:class:`colloc.lab.exports.LabFileError`), missing markers or plates, gaps longer
+        than ``max_gap``, markers whose distance jumps (swapped markers), plates under the
+        wrong foot, too short a record.
+    """
+    _check_types(settings, markers_file=markers_file, forces_file=forces_file, static=static)
+    problems = settings.problems()
+    read: list[LabExport | LabRecord] = []
+    for path, header, grf in ((markers_file, names, None), (forces_file, force_names, mapping)):
+        if path is None:
+            continue
+        try:
+            read.append(
+                read_lab_file(
+                    path,
+                    names=header,
+                    zeros_are_missing=settings.zeros_are_missing,
+                    mapping=grf,
+                )
+            )
+        except LabFileError as error:
+            problems += [f"{error.source}: {p}" for p in error.problems]
+    standing = None
+    if static is not None:
+        try:
+            standing = read_lab_file(static)
+        except LabFileError as error:
+            problems += [f"{error.source}: {p}" for p in error.problems]
+        if standing is not None and not isinstance(standing, LabRecord):
+            problems.append(
+                f"{static}: a static trial must be 3-D (TRC or C3D), found a planar export"
+            )
+    if problems:
+        raise LabFileError("lab record", problems)
+    landmarks: dict[str, Any] = {}
+    first = read[0]
+    uses_default_names = settings.marker_set == MarkerSet()
+    if isinstance(first, LabRecord) and uses_default_names:
+        needed = [DEFAULT_MARKER_SET.marker(side, lm) for side in SIDES for lm in LANDMARKS]
+        if not all(name in first.markers for name in needed):
+            read[0], landmarks = landmark_record(
+                first, standing if isinstance(standing, LabRecord) else None
+            )
+    markers, forces, settings, notes = _planar(read, settings, forward)
+    result = process_lab(markers, settings, forces)
+    result.notes[:0] = notes
+    result.trial.metadata["lab"]["notes"][:0] = notes
+    if landmarks:
+        result.trial.metadata["lab"]["landmarks"] = landmarks
+    sources = {"markers": _file_record(markers_file)}
+    if forces_file is not None:
+        sources["forces"] = _file_record(forces_file)
+    if mapping is not None:
+        sources["plate_sides"] = _file_record(mapping)
+    if static is not None:
+        sources["static"] = _file_record(static)
+    result.trial.metadata["lab"]["sources"] = sources
+    return result
+
+
+def _check_types(settings: Any, **paths: Any) -> None:
+    """A TypeError naming an argument of the wrong kind (before any file is opened)."""
+    check_settings(settings)
+    for name, value in paths.items():
+        if value is not None and not isinstance(value, str | os.PathLike):
+            raise TypeError(f"{name}: expected a file path, found {type(value).__name__} {value!r}")
+    if paths.get("markers_file") is None:
+        raise TypeError("markers_file: expected a file path, found None")
+
+
+def _planar(
+    read: list[LabExport | LabRecord], settings: LabSettings, forward: str | None
+) -> tuple[LabExport, LabExport | None, LabSettings, list[str]]:
+    """The planar exports of what was read, and the settings with the plates' sides where
+    the files (or the centres of pressure under the feet) state them."""
+    if not any(isinstance(item, LabRecord) for item in read):
+        exports = [item for item in read if isinstance(item, LabExport)]
+        return exports[0], exports[1] if len(exports) > 1 else None, settings, []
+    records = [item if isinstance(item, LabRecord) else _as_record(item) for item in read]
+    marker_record = records[0]
+    plate_record = records[1] if len(records) > 1 else records[0]
+    markers, plates, sides, notes, _ = sagittal_exports(
+        marker_record, plate_record, settings.marker_set, forward
+    )
+    notes = (
+        marker_record.notes
+        + (plate_record.notes if plate_record is not marker_record else [])
+        + notes
+    )
+    if markers is None:
+        raise LabFileError(marker_record.source, ["no markers in it"])
+    if plates is not None and plate_record is marker_record:
+        markers = (
+            replace(markers, plates=plates.plates)
+            if plates.time.size == markers.time.size
+            else markers
+        )
+        forces = None if plates.time.size == markers.time.size else plates
+    else:
+        forces = plates
+    ms = settings.marker_set
+    stated = {side: name for name, side in sides.items()}
+    if len(stated) == 2 and stated != dict(ms.plates):
+        known = set((forces or markers).plates)
+        if all(name in known for name in ms.plates.values()) and ms.plates != MarkerSet().plates:
+            raise LabFileError(
+                "lab record",
+                [
+                    f"plates: the given plates {dict(ms.plates)} contradict the record, whose "
+                    f"centres of pressure put {stated} under the feet"
+                ],
+            )
+        settings = replace(settings, marker_set=replace(ms, plates=stated))
+        notes.append(f"plates under the feet: {stated}")
+    return markers, forces, settings, notes
+
+
+def _as_record(export: LabExport) -> LabRecord:
+    """A planar export as a 3-D record in (forward, up, 0), so it can pair with a 3-D file."""
+    markers = {
+        name: np.column_stack([xy, np.zeros(len(xy))]) for name, xy in export.markers.items()
+    }
+    plates = {}
+    for name, channels in export.plates.items():
+        fx, fy, mz = channels.T
+        with np.errstate(divide="ignore", invalid="ignore"):
+            cop = np.where(fy > UNLOADED_FORCE, mz / fy, np.nan)
+        zeros = np.zeros(len(fx))
+        plates[name] = PlateSeries(
+            export.time,
+            np.column_stack([fx, fy, zeros]),
+            np.column_stack([cop, zeros, zeros]),
+            np.zeros((len(fx), 3)),
+        )
+    return LabRecord(
+        time=export.time, markers=markers, plates=plates, up=1, source=export.source,
+        columns=dict(export.columns),
+    )  # fmt: skip
+
+
+def _file_record(path: str | os.PathLike[str]) -> dict[str, str]:
+    data = Path(path).read_bytes()
+    return {"path": str(Path(path).resolve()), "sha256": hashlib.sha256(data).hexdigest()}
