@@ -157,8 +157,17 @@ def test_c3d_type2_platforms_give_back_the_written_reaction_through_ezc3d(tmp_pa
         "FP1": _random_plates(rng, analog_time, 0.25),
         "FP2": _random_plates(rng, analog_time, -0.25),
     }
-    record = read_c3d(write_c3d(tmp_path / "walk.c3d", time, markers, plates, 1000.0))
+    events = [
+        {"label": "Foot Strike", "context": "Right", "time": 0.125},
+        {"label": "Foot Off", "context": "Left", "time": 0.05},
+    ]
+    record = read_c3d(write_c3d(tmp_path / "walk.c3d", time, markers, plates, 1000.0, events))
     assert record.up == 2 and list(record.plates) == ["FP1", "FP2"]
+    assert [(e["label"], e["context"]) for e in record.events] == [
+        ("Foot Off", "Left"),
+        ("Foot Strike", "Right"),
+    ]
+    np.testing.assert_allclose([e["time"] for e in record.events], [0.05, 0.125], atol=1e-6)
     np.testing.assert_allclose(record.markers["LHEE"], markers["LHEE"], atol=1e-6)
     assert np.isnan(record.markers["RHEE"][5]).all()
     for name, plate in plates.items():

@@ -116,6 +116,7 @@ def trial_from_lab(
     result.trial.metadata["lab"]["notes"][:0] = notes
     if landmarks:
         result.trial.metadata["lab"]["landmarks"] = landmarks
+    result.notes.extend(_file_facts(read, settings, result.trial.metadata["lab"]))
     sources = {"markers": _file_record(markers_file)}
     if forces_file is not None:
         sources["forces"] = _file_record(forces_file)
@@ -210,3 +211,28 @@ def _as_record(export: LabExport) -> LabRecord:
 def _file_record(path: str | os.PathLike[str]) -> dict[str, str]:
     data = Path(path).read_bytes()
     return {"path": str(Path(path).resolve()), "sha256": hashlib.sha256(data).hexdigest()}
+
+
+def _file_facts(
+    read: list[LabExport | LabRecord], settings: LabSettings, lab: dict[str, Any]
+) -> list[str]:
+    """The files' own events and subject, kept in the metadata; a subject whose stated mass
+    or height differs from the settings' is noted (the settings are used)."""
+    notes = []
+    for record in read:
+        if not isinstance(record, LabRecord):
+            continue
+        if record.events:
+            lab.setdefault("file_events", []).extend(record.events)
+        if record.subject:
+            lab["file_subject"] = dict(record.subject)
+            for key, given in (("body_mass", settings.body_mass), ("height", settings.height)):
+                stated = record.subject.get(key)
+                if isinstance(stated, float) and abs(stated - float(given)) > 0.01 * float(given):
+                    notes.append(
+                        f"{Path(record.source).name} states the subject's {key} as {stated:g}; "
+                        f"the {given:g} given is used"
+                    )
+    if notes:
+        lab["notes"].extend(notes)
+    return notes

@@ -71,6 +71,12 @@ class LabRecord:
         Analog channels by label, on :attr:`analog_time`.
     analog_time : ndarray
         [s], the analog channels' own times (empty without them).
+    events : list of dict
+        Events the file marks: ``label`` (e.g. ``Foot Strike``), ``context`` (``Right``,
+        ``Left``, ``General``) and ``time`` [s].
+    subject : dict
+        What the file says of the subject: ``name``, ``body_mass`` [kg], ``height`` [m],
+        where stated.
     """
 
     time: np.ndarray
@@ -83,6 +89,8 @@ class LabRecord:
     columns: dict[str, np.ndarray] = field(default_factory=dict)
     analogs: dict[str, np.ndarray] = field(default_factory=dict)
     analog_time: np.ndarray = field(default_factory=lambda: np.empty(0))
+    events: list[dict[str, object]] = field(default_factory=list)
+    subject: dict[str, object] = field(default_factory=dict)
 
 
 def regular_time(time: np.ndarray, rate: float | None, what: str) -> tuple[np.ndarray, list[str]]:

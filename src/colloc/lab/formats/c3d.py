@@ -106,7 +106,43 @@ def read_c3d(path: str | os.PathLike[str]) -> LabRecord:
         columns={},
         analogs={label: analogs[0, k] for k, label in enumerate(analog_labels)},
         analog_time=analog_time,
+        events=_events(c3d["parameters"]),
+        subject=_subject(c3d["parameters"]),
     )
+
+
+def _events(parameters: dict[str, Any]) -> list[dict[str, object]]:
+    """The EVENT group's events, in time order (TIMES holds minutes and seconds)."""
+    group = parameters.get("EVENT", {})
+    if "TIMES" not in group:
+        return []
+    times = np.asarray(group["TIMES"]["value"], float).reshape(2, -1)
+    labels = list(group.get("LABELS", {}).get("value", []))
+    contexts = list(group.get("CONTEXTS", {}).get("value", []))
+    events = [
+        {
+            "label": str(labels[k]).strip() if k < len(labels) else "",
+            "context": str(contexts[k]).strip() if k < len(contexts) else "",
+            "time": float(60.0 * times[0, k] + times[1, k]),
+        }
+        for k in range(times.shape[1])
+    ]
+    return sorted(events, key=lambda event: float(event["time"]))  # type: ignore[arg-type]
+
+
+def _subject(parameters: dict[str, Any]) -> dict[str, object]:
+    """Name, body mass and height where the file states them (SUBJECTS, and the PROCESSING
+    group Plug-in Gait writes: ``Bodymass`` in kg, ``Height`` in mm)."""
+    out: dict[str, object] = {}
+    names = parameters.get("SUBJECTS", {}).get("NAMES", {}).get("value", [])
+    if len(names) and str(names[0]).strip():
+        out["name"] = str(names[0]).strip()
+    processing = parameters.get("PROCESSING", {})
+    for key, name, scale in (("Bodymass", "body_mass", 1.0), ("Height", "height", 0.001)):
+        value = processing.get(key, {}).get("value", [])
+        if len(value) and float(value[0]) > 0:
+            out[name] = float(value[0]) * scale
+    return out
 
 
 def _plate(platform: dict[str, Any], time: np.ndarray) -> PlateSeries:
@@ -140,6 +176,7 @@ def write_c3d(
     markers: dict[str, np.ndarray],
     plates: dict[str, PlateSeries],
     analog_rate: float,
+    events: list[dict[str, object]] | None = None,
 ) -> Path:
     """Write markers and type-2 force platforms as a C3D file (X forward, Z up, mm).
 
@@ -157,6 +194,8 @@ def write_c3d(
         the first on the right.
     analog_rate : float
         [Hz].
+    events : list of dict, optional
+        ``label``, ``context`` and ``time`` [s] of each event (e.g. heel strikes).
 
     Returns
     -------
@@ -197,6 +236,13 @@ def write_c3d(
     channels = np.arange(1, 6 * len(plates) + 1).reshape(len(plates), 6).T
     _integers(c3d, "CHANNEL", channels, list(channels.shape))
     _integers(c3d, "ZERO", [0, 0], [2])
+    for event in events or []:
+        seconds = float(event["time"])  # type: ignore[arg-type]
+        c3d.add_event(
+            [int(seconds // 60), seconds % 60],
+            context=str(event["context"]),
+            label=str(event["label"]),
+        )
     partial = path.with_name(f".{path.stem}.part.c3d")  # ezc3d writes to names ending .c3d
     c3d.write(str(partial))
     partial.replace(path)
