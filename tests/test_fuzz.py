@@ -236,6 +236,8 @@ GAIT_IDENTIFY_FLAGS = [
     "--max-iter",
     "--seed",
     "--process-noise",
+    "--workers",
+    "--window-strides",
 ]
 GAIT_NUMBERS = [
     "1",
@@ -287,6 +289,8 @@ def test_fuzzed_gait_command_lines_are_checked_without_an_exception(seed, tmp_pa
             argv += [flag, choices[int(rng.integers(len(choices)))]]
     if simulate and rng.random() < 0.4:
         argv.append("--unperturbed")
+    if not simulate and rng.random() < 0.3:  # a scheduler, with or without --workers
+        argv += ["--scheduler", ["tcp://127.0.0.1:1", "garbage", ""][int(rng.integers(3))]]
     argv += [
         "--out",
         [str(tmp_path / "o"), "/proc/x", str(FIXTURE / "trial.tsv")][int(rng.integers(3))],
@@ -572,3 +576,44 @@ def test_fuzzed_problem_definitions_give_a_problem_or_a_named_error(seed):
         assert isinstance(value, int | float) and not value < 0, known  # a negative mass built
         assert problem.layout.num_variables > 0
     assert time.perf_counter() - started < CASE_SECONDS
+
+
+LAB_FLAGS = ["--mass", "--height", "--belt-speed", "--cutoff", "--max-gap", "--strike-threshold"]
+LAB_NAMED = {
+    "--plates": ["right=FP2,left=FP1", "right=FP1,left=FP1", "right=,left=FP1", "x"],
+    "--prefixes": ["right=R,left=L", "right=R,left=R", "right=R"],
+    "--forward": ["+x", "-z", "+y", "up", ""],
+}
+
+
+@pytest.mark.parametrize("seed", range(80))
+def test_fuzzed_trial_from_lab_command_lines_are_checked_without_an_exception(seed, tmp_path):
+    """``colloc gait trial-from-lab``: the parser's exit 2, or its checks' problem sentences
+    before any work; nothing is written and no input is touched."""
+    from colloc.cli.lab import trial_from_lab_checks
+
+    rng = np.random.default_rng(17000 + seed)
+    export = tmp_path / "export.tsv"
+    export.write_text("time\tRHEE.PosX\tRHEE.PosY\n0\t0\t0\n0.01\t0\t0\n")
+    argv = ["gait", "trial-from-lab", str(export)]
+    for flag in LAB_FLAGS:
+        if rng.random() < 0.7:
+            argv += [flag, GAIT_NUMBERS[int(rng.integers(len(GAIT_NUMBERS)))]]
+    for flag, choices in LAB_NAMED.items():
+        if rng.random() < 0.3:
+            argv += [flag, choices[int(rng.integers(len(choices)))]]
+    out = [str(tmp_path / "t"), str(tmp_path), "/proc/x", str(export), str(export / "t")]
+    argv += ["--out", out[int(rng.integers(len(out)))]]
+    if rng.random() < 0.5:
+        argv.append("--overwrite")
+    with contextlib.redirect_stderr(io.StringIO()) as err:
+        try:
+            args = build_parser().parse_args(argv)
+        except SystemExit as exit_:
+            assert exit_.code == 2 and "error:" in err.getvalue()
+            return
+    started = time.perf_counter()
+    _, problems = trial_from_lab_checks(args)
+    assert time.perf_counter() - started < CASE_SECONDS
+    assert all(isinstance(p, str) and p for p in problems)
+    assert export.read_text().startswith("time") and not (tmp_path / "t").exists()

@@ -367,3 +367,13 @@ def test_a_belt_speed_the_feet_contradict_is_refused(export, tmp_path):
 def test_a_strike_threshold_no_step_reaches_is_refused(export, tmp_path):
     message = _refusal(export, tmp_path, strike_threshold=1e9)
     assert "strike_threshold: 1e+09 N, but the right foot's plate peaks at" in message
+
+
+def test_left_and_right_markers_swapped_are_refused(export, tmp_path):
+    """The plates say which foot stands where: a record whose R and L markers trade places
+    puts each plate under the other side's markers."""
+    swapped = {
+        ("L" + n[1:] if n[0] == "R" else "R" + n[1:]): xy for n, xy in export.markers.items()
+    }
+    message = _refusal(LabExport(export.time, swapped, export.plates, export.columns), tmp_path)
+    assert "the plates or the markers' sides are swapped" in message
