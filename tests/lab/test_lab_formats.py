@@ -11,10 +11,6 @@ import pytest
 
 from colloc.cli import main
 from colloc.data.trial import read_trial
-from colloc.gait.closed_loop import simulate_walking
-from colloc.gait.design import design_controller
-from colloc.gait.orbit import GaitDynamics
-from colloc.gait.walking_cycle import WalkingCycle
 from colloc.lab import (
     LabFileError,
     LabSettings,
@@ -35,24 +31,13 @@ from colloc.lab.synthetic import write_lab_export
 from colloc.models.gait2d_params import load_parameters
 
 TESTS = Path(__file__).resolve().parents[1]
-CYCLE_FILE = TESTS / "gait" / "data" / "walking_cycle_60.npz"
 SUBJECT = (75.0, 1.8)
 
 
 @pytest.fixture(scope="module")
-def export() -> LabExport:
-    """4 s of closed-loop walking at 100 Hz as a lab would have recorded it (seeded noise)."""
-    dynamics = GaitDynamics.build()
-    cycle = WalkingCycle.from_npz(CYCLE_FILE)
-    feedback = np.arange(1, 18)
-    _, Tstar, K, _ = design_controller(
-        cycle, 200, R=np.eye(6) / 25.0, dynamics=dynamics, num_samples=241, feedback=feedback
-    )
-    record = simulate_walking(
-        cycle, Tstar, K, 4.0, None, dynamics=dynamics, feedback=feedback, sample_rate=100.0
-    )
-    assert not record.fell
-    return lab_export_from_record(record, load_parameters(*SUBJECT), seed=4)
+def export(walk) -> LabExport:
+    """The session's walk as a lab would have recorded it (seeded noise)."""
+    return lab_export_from_record(walk, load_parameters(*SUBJECT), seed=4)
 
 
 @pytest.fixture(scope="module")

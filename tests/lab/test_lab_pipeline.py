@@ -11,10 +11,6 @@ import pytest
 from colloc.cli import main
 from colloc.data.columns import JOINT_ANGLE_COLUMNS, JOINT_RATE_COLUMNS, TORQUE_COLUMNS
 from colloc.data.trial import read_trial
-from colloc.gait.closed_loop import simulate_walking
-from colloc.gait.design import design_controller
-from colloc.gait.orbit import GaitDynamics
-from colloc.gait.walking_cycle import WalkingCycle
 from colloc.lab import (
     LabFileError,
     LabNoise,
@@ -26,25 +22,8 @@ from colloc.lab import (
 from colloc.models.gait2d_params import load_parameters
 
 TESTS = Path(__file__).resolve().parents[1]
-CYCLE_FILE = TESTS / "gait" / "data" / "walking_cycle_60.npz"
 CLIP = TESTS / "data" / "records" / "gatk-leg2d-sagittal-gait-3s" / "rawdata.txt"
-SUBJECT = (75.0, 1.8)  # the stored cycle's subject
-
-
-@pytest.fixture(scope="module")
-def walk():
-    """4 s of closed-loop walking at 100 Hz on a constant 1.2 m/s belt (3 s to make)."""
-    dynamics = GaitDynamics.build()
-    cycle = WalkingCycle.from_npz(CYCLE_FILE)
-    feedback = np.arange(1, 18)
-    _, Tstar, K, info = design_controller(
-        cycle, 200, R=np.eye(6) / 25.0, dynamics=dynamics, num_samples=241, feedback=feedback
-    )
-    record = simulate_walking(
-        cycle, Tstar, K, 4.0, None, dynamics=dynamics, feedback=feedback, sample_rate=100.0
-    )
-    assert not record.fell
-    return record
+SUBJECT = (75.0, 1.8)  # the session walk's subject (tests/lab/conftest.py)
 
 
 def _contact_events(record) -> np.ndarray:

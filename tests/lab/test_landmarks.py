@@ -3,16 +3,10 @@ against points known by construction."""
 
 from __future__ import annotations
 
-from pathlib import Path
-
 import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
-from colloc.gait.closed_loop import simulate_walking
-from colloc.gait.design import design_controller
-from colloc.gait.orbit import GaitDynamics
-from colloc.gait.walking_cycle import WalkingCycle
 from colloc.lab import LabFileError, LabNoise, LabSettings, lab_export_from_record, trial_from_lab
 from colloc.lab.formats.mot import write_mot
 from colloc.lab.formats.trc import write_trc
@@ -22,7 +16,6 @@ from colloc.lab.record import LabRecord
 from colloc.lab.writers import OPENSIM_PLATES, _plate
 from colloc.models.gait2d_params import load_parameters
 
-CYCLE_FILE = Path(__file__).resolve().parents[1] / "gait" / "data" / "walking_cycle_60.npz"
 SUBJECT = (75.0, 1.8)
 
 
@@ -70,18 +63,10 @@ def _clustered(markers: dict[str, np.ndarray], side: str) -> dict[str, np.ndarra
 
 
 @pytest.fixture(scope="module")
-def opensim_style(tmp_path_factory):
+def opensim_style(walk, tmp_path_factory):
     """A noise-free simulated walk written as OpenSim's example set is: clusters on thigh and
     shank, epicondyles and malleoli only in a static trial, pelvis markers for the hip."""
-    dynamics = GaitDynamics.build()
-    cycle = WalkingCycle.from_npz(CYCLE_FILE)
-    feedback = np.arange(1, 18)
-    _, Tstar, K, _ = design_controller(
-        cycle, 200, R=np.eye(6) / 25.0, dynamics=dynamics, num_samples=241, feedback=feedback
-    )
-    record = simulate_walking(
-        cycle, Tstar, K, 4.0, None, dynamics=dynamics, feedback=feedback, sample_rate=100.0
-    )
+    record = walk
     export = lab_export_from_record(
         record, load_parameters(*SUBJECT), seed=0, noise=LabNoise(0, 0, 0)
     )
