@@ -184,7 +184,13 @@ def test_the_unknown_input_example_recovers_the_parameters_and_the_force(tmp_pat
 GAIT_FIGURES = ("gait-schedule-tstar.png", "gait-schedule-stiffness.png")
 #: A measured run's figures (the 8-minute trial's 360 s fit, docs/gait.md), committed as
 #: measured: no test can afford the run; the pages' figures must still exist.
-MEASURED_FIGURES = ("gait-8min-stiffness.png", "gait-8min-vaf.png", "gait-8min-walk.png")
+MEASURED_FIGURES = (
+    "gait-8min-stiffness.png",
+    "gait-8min-vaf.png",
+    "gait-8min-walk.png",
+    # docs/examples/opensim_walk.py, from OpenSim's example walk, which colloc may not ship
+    "opensim-walk.png",
+)
 LAB_FIGURES = ("lab-clip-kinematics.png", "lab-clip-moments.png")
 
 
