@@ -532,3 +532,24 @@ def test_runs_list_shows_each_kind_in_its_own_columns(tmp_path, capsys):
     assert (
         "num_links" not in gait and "max_rel_error" not in gait and "62" not in gait.split("\n")[2]
     )
+
+
+def test_every_option_of_every_command_says_what_it_does():
+    """Six gait identify options had no help text (--structure, --scheme, --guess,
+    --segment-nodes, --max-iter, --seed)."""
+    import argparse
+
+    from colloc.cli import build_parser
+
+    silent = []
+
+    def walk(parser: argparse.ArgumentParser, path: str) -> None:
+        for action in parser._actions:
+            if isinstance(action, argparse._SubParsersAction):
+                for name, sub in action.choices.items():
+                    walk(sub, f"{path} {name}")
+            elif action.option_strings and action.help in (None, "") and action.dest != "help":
+                silent.append(f"{path} {action.option_strings[0]}")
+
+    walk(build_parser(), "colloc")
+    assert silent == []

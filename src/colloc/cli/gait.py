@@ -140,8 +140,20 @@ def _identify_parser(gs: Any, default_url: str) -> None:
         help="fed-back signals s: the trial's recorded set (metadata; else joint angles and "
         "rates) or a named set (default %(default)s)",
     )
-    idp.add_argument("--structure", choices=gi.STRUCTURES, default=d.structure)
-    idp.add_argument("--scheme", choices=gi.SCHEMES, default=d.scheme)
+    idp.add_argument(
+        "--structure",
+        choices=gi.STRUCTURES,
+        default=d.structure,
+        help="gains identified: full (each torque on every fed-back state) or joint-isolated "
+        "(each torque on its own joint's angle and rate) (default %(default)s)",
+    )
+    idp.add_argument(
+        "--scheme",
+        choices=gi.SCHEMES,
+        default=d.scheme,
+        help="collocation scheme of the fit's dynamics (default %(default)s; backward Euler is "
+        "first order, kept for comparison)",
+    )
     idp.add_argument(
         "--phase",
         choices=gi.PHASES,
@@ -150,7 +162,13 @@ def _identify_parser(gs: Any, default_url: str) -> None:
         "what a real-time controller can know), linear between right heel strikes, or the "
         "trial's controller_phase column (default %(default)s)",
     )
-    idp.add_argument("--guess", choices=gi.GUESSES, default=d.guess)
+    idp.add_argument(
+        "--guess",
+        choices=gi.GUESSES,
+        default=d.guess,
+        help="the controller's starting values: direct (least squares of the measured torques "
+        "on the measured feedback) or zero (default %(default)s)",
+    )
     idp.add_argument(
         "--method",
         choices=gi.METHODS,
@@ -174,8 +192,19 @@ def _identify_parser(gs: Any, default_url: str) -> None:
         default=None,
         help="fit window length, s (default: up to the split)",
     )
-    idp.add_argument("--segment-nodes", type=positive_int, default=d.segment_nodes)
-    idp.add_argument("--max-iter", type=int, default=d.max_iter)
+    idp.add_argument(
+        "--segment-nodes",
+        type=positive_int,
+        default=d.segment_nodes,
+        help="method closed-loop: nodes per condensing segment of the Gauss-Newton solver "
+        "(default %(default)s)",
+    )
+    idp.add_argument(
+        "--max-iter",
+        type=int,
+        default=d.max_iter,
+        help="solver iterations at most (default %(default)s)",
+    )
     idp.add_argument(
         "--process-noise",
         type=process_noise_arg,
@@ -223,7 +252,13 @@ def _identify_parser(gs: Any, default_url: str) -> None:
         action="store_true",
         help="skip the forward simulation of the held-out part",
     )
-    idp.add_argument("--seed", type=positive_int, default=d.seed, help="random seed")
+    idp.add_argument(
+        "--seed",
+        type=positive_int,
+        default=d.seed,
+        help="seeds any random draw (none in the default settings; recorded with the run; "
+        "default %(default)s)",
+    )
     idp.add_argument("--db", default=default_url, help="results database URL")
     idp.add_argument("--no-store", action="store_true", help="do not store the run")
     idp.add_argument("--db-allow-other-tables", action="store_true", help=ALLOW_OTHER_TABLES_HELP)

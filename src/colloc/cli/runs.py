@@ -21,7 +21,7 @@ def add_parser(sub: Any, default_url: str) -> None:
     after = argparse.ArgumentParser(add_help=False)
     after.add_argument("--db", default=argparse.SUPPRESS, help="results database URL")
     lst = rs.add_parser("list", help="list stored runs", parents=[after])
-    lst.add_argument("--kind", default=None)
+    lst.add_argument("--kind", default=None, help="only runs of this kind (pendulum, gait, ...)")
     lst.add_argument("--batch", default=None, help="only the runs of this batch (id or prefix)")
     show = rs.add_parser("show", help="show one run (an id or a unique prefix)", parents=[after])
     show.add_argument("run_id")
