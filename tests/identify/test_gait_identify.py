@@ -34,6 +34,7 @@ def identified(tmp_path_factory):
 
 def test_direct_start_recovers_the_known_controller_and_walks_the_held_out_part(identified):
     code, summary, _, _ = identified
+    assert "subject: 75 kg, 1.8 m (the trial's metadata)" in summary["notes"]
     # exact data of a controller in the identified class: the direct least squares on the
     # measured rates is exact, and so is the (unsolved) collocation estimate it starts
     assert summary["direct_K_relative_error"] < 1e-6
@@ -256,3 +257,17 @@ def test_a_missed_heel_strike_is_named(tmp_path):
     before, after = right["time"].iloc[3], right["time"].iloc[5]
     assert "events: 1 stride(s) between right heel strikes last more than 1.6 times" in message
     assert f"{before:.2f}-{after:.2f} s" in message and "a strike was missed" in message
+
+
+def test_the_subject_and_where_it_came_from_are_said():
+    """A trial with an empty metadata.yaml was accepted and nothing said which body mass and
+    height scaled the model."""
+    from colloc.identify.gait_read import subject_note
+
+    assert subject_note({"body_mass": 62.0, "height": 1.65}) == (
+        "subject: 62 kg, 1.65 m (the trial's metadata)"
+    )
+    said = subject_note({})
+    assert said.startswith("subject: 75 kg, 1.8 m; metadata.yaml gives no body_mass or height")
+    assert "colloc's defaults are used" in said
+    assert "gives no height" in subject_note({"body_mass": 80.0})

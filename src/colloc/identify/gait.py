@@ -62,6 +62,7 @@ from colloc.identify.gait_read import (
     read_gait_data,
     state_names,
     subject,
+    subject_note,
     trial_digest,
 )
 from colloc.identify.gait_settings import GaitIdentifySettings
@@ -201,6 +202,7 @@ def identify_gait(
 
     meta = data.trial.metadata
     dyn = gait_dynamics(*subject(meta))
+    notes.append(subject_note(meta))
     model, torques = dyn.model, dyn.gait.torques
     state_index = {name: i for i, name in enumerate(state_names())}
     feedback_states = [model.states[state_index[n]] for n in data.feedback]

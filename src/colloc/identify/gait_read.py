@@ -304,6 +304,37 @@ def measured_states(t: np.ndarray, signals: Any, window: float) -> np.ndarray:
     return np.hstack([positions, rates])
 
 
+#: The subject assumed when a trial's metadata does not say: body mass [kg], height [m].
+DEFAULT_SUBJECT = (75.0, 1.8)
+
+
 def subject(meta: dict[str, Any]) -> tuple[float, float]:
-    """Body mass [kg] and height [m] a trial's metadata records (75 kg, 1.8 m if not)."""
-    return float(meta.get("body_mass", 75.0)), float(meta.get("height", 1.8))
+    """Body mass [kg] and height [m] a trial's metadata records (:data:`DEFAULT_SUBJECT` if
+    not)."""
+    return (
+        float(meta.get("body_mass", DEFAULT_SUBJECT[0])),
+        float(meta.get("height", DEFAULT_SUBJECT[1])),
+    )
+
+
+def subject_note(meta: dict[str, Any]) -> str:
+    """The sentence that says which subject the model was scaled to, and from where.
+
+    Parameters
+    ----------
+    meta : dict
+        The trial's metadata.
+
+    Returns
+    -------
+    str
+    """
+    mass, height = subject(meta)
+    missing = [key for key in ("body_mass", "height") if key not in meta]
+    if not missing:
+        return f"subject: {mass:g} kg, {height:g} m (the trial's metadata)"
+    return (
+        f"subject: {mass:g} kg, {height:g} m; metadata.yaml gives no {' or '.join(missing)}, so "
+        "colloc's defaults are used: give the subject's there, the model's segments scale "
+        "with both"
+    )
