@@ -37,6 +37,27 @@ _IGNORED_MARKER_AXES: tuple[str, ...] = ("PosZ",)
 PLATE_CHANNELS: tuple[str, ...] = ("ForX", "ForY", "MomZ")
 
 
+def stamp_problems(time: np.ndarray) -> list[str]:
+    """What keeps in-memory time stamps from being a record's: not 1-D with 2 or more
+    samples, not finite, or not strictly increasing (at most one sentence).
+
+    Parameters
+    ----------
+    time : ndarray
+
+    Returns
+    -------
+    list of str
+    """
+    if time.ndim != 1 or time.size < 2:
+        return [f"time: expected a 1-D array of 2 or more stamps, found shape {time.shape}"]
+    if not np.all(np.isfinite(time)):
+        return [f"time: {int((~np.isfinite(time)).sum())} NaN or infinite stamps"]
+    if np.any(np.diff(time) <= 0):
+        return [f"time: not strictly increasing at sample {int(np.argmax(np.diff(time) <= 0)) + 1}"]
+    return []
+
+
 #: A time step [s] no lab instrument takes (a rate of 2 Hz): stamps in milliseconds.
 MAX_TIME_STEP = 0.5
 
@@ -71,15 +92,8 @@ class LabExport:
     source: str = ""
 
     def __post_init__(self) -> None:
-        problems = []
         time = np.asarray(self.time, dtype=float)
-        if time.ndim != 1 or time.size < 2:
-            problems.append(f"time: expected 2 or more stamps, found shape {time.shape}")
-        elif not np.all(np.isfinite(time)):
-            problems.append(f"time: {int((~np.isfinite(time)).sum())} NaN or infinite stamps")
-        elif np.any(np.diff(time) <= 0):
-            row = int(np.argmax(np.diff(time) <= 0)) + 1
-            problems.append(f"time: not strictly increasing at sample {row}")
+        problems = stamp_problems(time)
         for kind, items, width in (("marker", self.markers, 2), ("plate", self.plates, 3)):
             for name, values in items.items():
                 array = np.asarray(values, dtype=float)

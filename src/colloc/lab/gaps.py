@@ -20,7 +20,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.interpolate import make_smoothing_spline
 
-from colloc.lab.exports import LabFileError
+from colloc.lab.exports import LabFileError, stamp_problems
 
 #: Longest interior gap filled by default [s]: a quarter second, under a quarter of a
 #: stride, over which a spline through walking markers stays within millimetres.
@@ -155,16 +155,7 @@ def fill_gaps(
 
 def _check_inputs(time: np.ndarray, markers: Mapping[str, np.ndarray]) -> None:
     """Every problem of ``fill_gaps``' arguments at once (a ValueError naming each)."""
-    problems = []
-    if time.ndim != 1 or time.size < 2:
-        problems.append(
-            f"time: expected a 1-D array of 2 or more samples, found shape {time.shape}"
-        )
-    elif not np.all(np.isfinite(time)):
-        problems.append(f"time: {int((~np.isfinite(time)).sum())} NaN or infinite stamps")
-    elif np.any(np.diff(time) <= 0):
-        row = int(np.argmax(np.diff(time) <= 0)) + 1
-        problems.append(f"time: not strictly increasing at sample {row}")
+    problems = stamp_problems(time)
     for name, xy in markers.items():
         array = np.asarray(xy, dtype=float)
         if array.ndim != 2 or array.shape[1] != 2:
