@@ -181,3 +181,48 @@ def test_design_argument_errors(dyn, standing):
         cycle_linearization(dyn, standing, 2)
     with pytest.raises(ValueError, match=r"states, torques: expected shapes"):
         dyn.linearize(np.zeros((2, 17)), np.zeros((2, 6)), 0.0)
+
+
+def test_fitted_tstar_recovers_an_exact_schedule_and_beats_sampling_at_the_points():
+    """T* in least squares: exact when the cycle's torques are a P-point schedule's, and
+    never worse than sampling T_cycle + K s_cycle at the points (both scored by
+    GainScheduled.torque, the controller's own interpolation)."""
+    from sympy.physics.mechanics import dynamicsymbols
+
+    from colloc.control.gain_scheduled import GainScheduled
+    from colloc.gait.design import fitted_tstar
+
+    rng = np.random.default_rng(3)
+    P, n_s, num = 7, 4, 4001
+    phase = np.linspace(0.0, 1.0, num)
+    states = np.zeros((num, 18))
+    feedback = np.array([3, 4, 12, 13])
+    for j, col in enumerate(feedback):  # smooth, periodic, not linear between points
+        states[:, col] = np.sin(2 * np.pi * (j + 1) * phase + j) + 0.3 * np.cos(6 * np.pi * phase)
+    ctrl = GainScheduled(
+        P, feedback=dynamicsymbols(f"s0:{n_s}"), inputs=dynamicsymbols("T0:6"),
+        phase=dynamicsymbols("phi"),
+    )  # fmt: skip
+    K = rng.normal(0.0, 50.0, (P, 6, n_s))
+    G = rng.normal(0.0, 20.0, (P, 6))
+    # torques a P-point schedule with T* = G applies on exactly these states
+    exact = ctrl.torque(phase, states[:, feedback], G, K)
+    cycle = WalkingCycle(phase, states, exact, np.zeros((num, 8)), 1.0, 1.0)
+    np.testing.assert_allclose(fitted_tstar(ctrl, cycle, K, feedback), G, atol=1e-8)
+
+    # torques of no P-point schedule: the fit scores no worse than sampling at the points
+    other = exact + 15.0 * np.sin(10 * np.pi * phase)[:, None]
+    cycle = WalkingCycle(phase, states, other, np.zeros((num, 8)), 1.0, 1.0)
+    points = np.arange(P) * (num - 1) // P
+    sampled = other[points] + np.einsum("pij,pj->pi", K, states[points][:, feedback])
+    fitted = fitted_tstar(ctrl, cycle, K, feedback)
+
+    def rms(tstar):
+        return np.sqrt(np.mean((ctrl.torque(phase, states[:, feedback], tstar, K) - other) ** 2))
+
+    assert rms(fitted) < rms(sampled)
+    # and it is the least-squares optimum: any nudge of one point's torque scores worse
+    for p, j in [(0, 0), (3, 5), (6, 2)]:
+        nudged = fitted.copy()
+        nudged[p, j] += 0.5
+        assert rms(nudged) > rms(fitted)

@@ -244,7 +244,7 @@ class FakeDesignInfo:
     spectral_radius: float
 
 
-def fake_pipeline(monkeypatch, calls, spectral_radius=0.5):
+def fake_pipeline(monkeypatch, calls, spectral_radius=0.5, settle_error=None):
     """Replace the expensive steps by synthetic stand-ins that log their arguments."""
     from colloc.control.gain_scheduled import joint_isolated_mask
     from colloc.gait.closed_loop import ClosedLoopRecord
@@ -260,7 +260,7 @@ def fake_pipeline(monkeypatch, calls, spectral_radius=0.5):
         )
 
     def design_controller(cycle, num_points, **kwargs):
-        calls.append(("design", num_points, kwargs))
+        calls.append(("design", num_points, {**kwargs, "cycle": cycle}))
 
         class Controller:
             pass
@@ -273,7 +273,7 @@ def fake_pipeline(monkeypatch, calls, spectral_radius=0.5):
             return_K = np.pad(K, ((0, 0), (0, 0), (0, extra)))
         else:
             return_K = K
-        radii = spectral_radius if isinstance(spectral_radius, list) else [spectral_radius] * 2
+        radii = spectral_radius if isinstance(spectral_radius, list) else [spectral_radius] * 3
         designs = sum(c[0] == "design" for c in calls)
         return controller, Tstar, return_K, FakeDesignInfo(radii[(designs - 1) % len(radii)])
 
@@ -305,7 +305,14 @@ def fake_pipeline(monkeypatch, calls, spectral_radius=0.5):
 
     def settle_cycle(cycle, Tstar_, K_, feedback, **kwargs):
         calls.append(("settle", feedback.tolist(), kwargs))
-        return cycle
+        if settle_error is not None and sum(c[0] == "settle" for c in calls) == 2:
+            raise settle_error
+        settled = WalkingCycle(
+            cycle.times, cycle.states, cycle.torques, cycle.contact_forces,
+            cycle.belt_speed, cycle.duration,
+        )  # fmt: skip
+        settled.stats = {**cycle.stats, "settled": sum(c[0] == "settle" for c in calls)}
+        return settled
 
     monkeypatch.setattr(workflow, "settle_cycle", settle_cycle)
     monkeypatch.setattr(workflow, "find_walking_cycle", find_walking_cycle)
@@ -407,13 +414,36 @@ def test_an_unstable_trial_controller_is_refused_after_settling(monkeypatch, tmp
     from colloc.gait.workflow import GaitSimulationSettings, UnstableControllerError, simulate_trial
 
     calls: list = []
-    fake_pipeline(monkeypatch, calls, spectral_radius=[0.2, 3.5])
+    fake_pipeline(monkeypatch, calls, spectral_radius=[0.2, 3.5, 3.5])
     out = tmp_path / "out"
     settings = GaitSimulationSettings(duration=3.0, out=out, perturbed=False, feedback="joints")
     with pytest.raises(UnstableControllerError, match=r"found 3.5 .*feedback 'joints'"):
         simulate_trial(settings)
-    assert [c[0] for c in calls] == ["dynamics", "cycle", "design", "settle", "design"]
+    # the P-point controller's own stride is not walked with an unstable design, and the
+    # design on the full-state stride is refused
+    assert [c[0] for c in calls] == ["dynamics", "cycle", "design", "settle", "design", "design"]
     assert not out.exists()
+
+
+def test_a_schedule_stride_that_does_not_settle_leaves_the_full_state_stride(monkeypatch, tmp_path):
+    from colloc.gait.settle import CycleNotSettledError
+    from colloc.gait.workflow import GaitSimulationSettings, simulate_trial
+
+    calls: list = []
+    error = CycleNotSettledError("settle_cycle: the last two strides still differ")
+    fake_pipeline(monkeypatch, calls, settle_error=error)
+    settings = GaitSimulationSettings(
+        duration=6.0, out=tmp_path / "out", perturbed=False, animation_seconds=0.5
+    )
+    result = simulate_trial(settings)
+    designs = [c for c in calls if c[0] == "design"]
+    # the trial's controller designed on the full-state settled stride, and the user told why
+    assert len(designs) == 3 and designs[2][2]["cycle"].stats["settled"] == 1
+    assert any(
+        "P = 20 controller's own stride was not used" in n and "still differ" in n
+        for n in result.notes
+    ), result.notes
+    assert any("still differ" in n for n in result.summary["notes"])
 
 
 def test_belt_input_from_the_measured_record():
@@ -436,6 +466,7 @@ def test_simulate_trial_writes_a_complete_output(monkeypatch, tmp_path):
 
     from colloc.gait.walking_cycle import WalkingCycle
     from colloc.gait.workflow import (
+        ORBIT_TOLERANCE,
         SETTLE_POINTS,
         GaitSimulationSettings,
         motor_seed,
@@ -454,7 +485,9 @@ def test_simulate_trial_writes_a_complete_output(monkeypatch, tmp_path):
         cache=False,
     )  # fmt: skip
     result = simulate_trial(settings, progress=lambda step, detail: steps.append(step))
-    assert steps == ["cycle", "settle", "design", "simulate", "trial", "figures", "animation"]
+    assert steps == [
+        "cycle", "settle", "orbit", "design", "simulate", "trial", "figures", "animation",
+    ]  # fmt: skip
     cycles = [c for c in calls if c[0] == "cycle"]
     assert len(cycles) == 1 and cycles[0][2]["cache"] is False
     assert cycles[0][2]["num_nodes"] == 60  # the first of AUTO_NUM_NODES settled
@@ -464,8 +497,16 @@ def test_simulate_trial_writes_a_complete_output(monkeypatch, tmp_path):
     assert designs[0][2]["feedback"].tolist() == list(range(1, 18))
     # Settling always uses SETTLE_POINTS; only the trial's controller takes num_points.
     assert designs[0][1] == SETTLE_POINTS and designs[1][1] == settings.num_points != SETTLE_POINTS
-    assert next(c for c in calls if c[0] == "settle")[1] == list(range(1, 18))
+    settles = [c for c in calls if c[0] == "settle"]
+    assert settles[0][1] == list(range(1, 18))
     assert designs[1][2]["feedback"].tolist() == [*range(3, 9), *range(12, 18)]
+    # The trial's P-point controller walks its own stride (feedback on the joints, the
+    # looser orbit tolerance), and the trial's controller is designed on that stride.
+    assert settles[1][1] == [*range(3, 9), *range(12, 18)]
+    assert settles[1][2]["tol"] == ORBIT_TOLERANCE
+    assert designs[1][2]["cycle"].stats["settled"] == 1
+    assert designs[2][1] == settings.num_points and designs[2][2]["cycle"].stats["settled"] == 2
+    assert designs[2][2]["feedback"].tolist() == [*range(3, 9), *range(12, 18)]
     assert cycles[0][2]["params"].body_mass == 70.0
     simulate = next(c for c in calls if c[0] == "simulate")
     assert simulate[1] == 6.0 and simulate[2][0][-1] == pytest.approx(6.0)
@@ -584,12 +625,12 @@ def test_cli_runs_the_workflow_and_reports_strides(monkeypatch, capsys, tmp_path
     assert designs[1][2]["feedback"].tolist() == [*range(2, 9), *range(11, 18)]
     # Without --points the trial's controller has the settings' default P (20), the
     # settling controller its own 200.
-    assert [d[1] for d in designs] == [200, 20]
+    assert [d[1] for d in designs] == [200, 20, 20]
     assert "strides: 5 right, 4 left; fell: False (walked the whole duration)" in printed
     assert (out / "summary.json").is_file()
     calls.clear()
     assert main(["gait", "simulate", "--duration", "6", "--points", "7", "--out", str(out)]) == 0
-    assert [c[1] for c in calls if c[0] == "design"] == [200, 7]
+    assert [c[1] for c in calls if c[0] == "design"] == [200, 7, 7]
     simulate = next(c for c in calls if c[0] == "simulate")
     assert simulate[3]["torque_noise"] == 0.0  # no motor noise unless asked for
 
