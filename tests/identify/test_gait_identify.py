@@ -271,3 +271,60 @@ def test_the_subject_and_where_it_came_from_are_said():
     assert said.startswith("subject: 75 kg, 1.8 m; metadata.yaml gives no body_mass or height")
     assert "colloc's defaults are used" in said
     assert "gives no height" in subject_note({"body_mass": 80.0})
+
+
+def stripped_copy(tmp_path: Path) -> Path:
+    """The fixture as a lab export's trial would be: the same walk, no controller recorded."""
+    trial = copy_fixture(tmp_path)
+    meta = yaml.safe_load((trial / "metadata.yaml").read_text())
+    del meta["controller"]
+    (trial / "metadata.yaml").write_text(yaml.safe_dump(meta))
+    return trial
+
+
+def test_truth_from_another_trial_scores_the_walk_like_the_walk_itself(identified, tmp_path):
+    """--truth: a trial without a controller, given the simulated trial's, is identified and
+    scored as the simulated trial is (same P, feedback, errors against the truth)."""
+    trial = stripped_copy(tmp_path)
+    alone = read_gait_data(GaitIdentifySettings(trial=trial, fit_fraction=0.6))
+    own = read_gait_data(GaitIdentifySettings(trial=FIXTURE, fit_fraction=0.6))
+    given = read_gait_data(GaitIdentifySettings(trial=trial, fit_fraction=0.6, truth=FIXTURE))
+    assert given.points == own.points and given.feedback == own.feedback
+    assert given.trial.metadata["controller"] == own.trial.metadata["controller"]
+    assert given.trial.metadata["truth_source"] == str(FIXTURE)
+    assert "controller" not in alone.trial.metadata
+    # the whole command: the same errors against the truth as the simulated trial's own run
+    out = tmp_path / "s.json"
+    code = main(
+        [
+            "gait",
+            "identify",
+            str(trial),
+            *ARGS,
+            "--truth",
+            str(FIXTURE),
+            "--no-store",
+            "--no-simulate",
+        ]
+        + ["--json", str(out)]
+    )
+    assert code == identified[0]  # 1 for both: --max-iter 0 stops IPOPT before success
+    summary, reference = json.loads(out.read_text()), identified[1]
+    for key in ("K_relative_error", "Tstar_relative_error", "fraction_within_3se"):
+        assert summary[key] is not None
+        assert summary[key] == pytest.approx(reference[key], rel=1e-6), key
+    assert any(n.startswith(f"true controller: {FIXTURE}'s") for n in summary["notes"])
+
+
+def test_a_truth_that_records_no_controller_is_refused_by_name(tmp_path, capsys):
+    trial = stripped_copy(tmp_path)
+    message = read_error(trial, fit_fraction=0.6, truth=trial)
+    assert "truth: expected a trial whose metadata records the controller" in message
+    assert str(trial) in message
+    (tmp_path / "broken").mkdir()
+    (tmp_path / "broken" / "metadata.yaml").write_text("controller: [unclosed\n")
+    assert "truth: " in read_error(trial, fit_fraction=0.6, truth=tmp_path / "broken")
+    code = main(["gait", "identify", str(trial), "--truth", str(tmp_path / "nowhere")])
+    assert code == 2
+    err = capsys.readouterr().err
+    assert "truth: expected the directory of the simulated trial" in err

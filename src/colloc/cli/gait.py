@@ -226,6 +226,14 @@ def _identify_parser(gs: Any, default_url: str) -> None:
         + ")",
     )
     idp.add_argument(
+        "--truth",
+        type=path_arg,
+        default=None,
+        metavar="SIMULATED_TRIAL",
+        help="take the true controller (and its P, feedback and phase law) from this trial's "
+        "metadata: a lab export of a simulated walk scored like the walk itself",
+    )
+    idp.add_argument(
         "--window-strides",
         type=positive_int,
         default=d.window_strides,
@@ -308,6 +316,7 @@ def gait_identify_checks(
         method=args.method,
         instrument_lags=args.instrument_lags,
         window_strides=args.window_strides,
+        truth=args.truth,
     )
     outputs = output_problems(args.json, None if args.no_plots else args.out)
     spread = []

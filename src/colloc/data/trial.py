@@ -444,6 +444,36 @@ def _find_series_file(directory: Path) -> Path:
     )
 
 
+def read_trial_metadata(directory: str | os.PathLike[str]) -> dict[str, Any]:
+    """The ``metadata.yaml`` of a trial directory alone, without reading its time series.
+
+    Parameters
+    ----------
+    directory : path-like
+        A trial directory.
+
+    Returns
+    -------
+    dict
+        Empty when the trial has no ``metadata.yaml``.
+
+    Raises
+    ------
+    FileNotFoundError
+        If ``directory`` is not a directory.
+    TrialError
+        If the file cannot be parsed or does not hold a mapping.
+    """
+    folder = Path(directory)
+    if not folder.is_dir():
+        raise FileNotFoundError(f"trial: expected a trial directory, found {str(folder)!r}")
+    problems: list[str] = []
+    loaded = _read_metadata(folder / METADATA_FILE_NAME, problems)
+    if problems:
+        raise TrialError(str(folder), problems)
+    return loaded
+
+
 def read_trial(
     path: str | os.PathLike[str], *, sampling_tolerance: float = DEFAULT_SAMPLING_TOLERANCE
 ) -> Trial:

@@ -203,6 +203,11 @@ def identify_gait(
     meta = data.trial.metadata
     dyn = gait_dynamics(*subject(meta))
     notes.append(subject_note(meta))
+    if settings.truth is not None:
+        notes.append(
+            f"true controller: {settings.truth}'s (its P, feedback and phase law used as this "
+            "trial's own)"
+        )
     model, torques = dyn.model, dyn.gait.torques
     state_index = {name: i for i, name in enumerate(state_names())}
     feedback_states = [model.states[state_index[n]] for n in data.feedback]

@@ -12,7 +12,7 @@ import numpy as np
 from colloc.data.columns import JOINT_ANGLE_COLUMNS, JOINT_RATE_COLUMNS, TORQUE_COLUMNS
 from colloc.data.phase import causal_gait_phase, unwrapped_gait_phase
 from colloc.data.split import split
-from colloc.data.trial import Trial, read_trial
+from colloc.data.trial import Trial, read_trial, read_trial_metadata
 from colloc.identify.direct import smooth_with_derivatives
 from colloc.identify.gait_settings import DEFAULT_POINTS, GaitIdentifySettings
 
@@ -40,6 +40,39 @@ def recorded_controller(meta: dict[str, Any]) -> dict[str, Any] | None:
     """The controller entry of a trial's metadata (a synthetic trial's truth), or None."""
     recorded = meta.get("controller")
     return recorded if isinstance(recorded, dict) else None
+
+
+def take_truth(trial: Trial, source: Any) -> list[str]:
+    """Give ``trial`` the controller recorded in another trial's metadata.
+
+    For a lab export of a simulated walk: the export's trial records no controller, the
+    simulated trial does. The controller entry replaces ``trial``'s (in memory), and
+    ``truth_source`` names where it came from.
+
+    Parameters
+    ----------
+    trial : Trial
+    source : path-like
+        The simulated trial's directory.
+
+    Returns
+    -------
+    list of str
+        Problems (empty when the controller was taken).
+    """
+    try:
+        other = read_trial_metadata(source)
+    except (FileNotFoundError, ValueError) as error:
+        return [f"truth: {error}"]
+    recorded = recorded_controller(other)
+    if recorded is None:
+        return [
+            f"truth: expected a trial whose metadata records the controller that made the walk "
+            f"(a colloc gait simulate trial), found none in {str(source)!r}"
+        ]
+    trial.metadata["controller"] = recorded
+    trial.metadata["truth_source"] = str(source)
+    return []
 
 
 def _feedback_names(choice: str, meta: dict[str, Any]) -> list[str]:
@@ -71,8 +104,10 @@ def tracked_columns(track: tuple[str, ...]) -> list[str]:
 def read_gait_data(settings: GaitIdentifySettings) -> GaitData:
     """Read and check the trial; split it; choose the fit window. All problems at once."""
     trial = read_trial(settings.trial)
-    meta = trial.metadata
     problems: list[str] = []
+    if settings.truth is not None:
+        problems += take_truth(trial, settings.truth)
+    meta = trial.metadata
     feedback = _feedback_names(settings.feedback, meta)
     unknown = [n for n in feedback if n not in state_names()]
     if unknown:

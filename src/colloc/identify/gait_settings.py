@@ -97,6 +97,12 @@ class GaitIdentifySettings:
         fed-back states this many samples earlier as instruments
         (:func:`colloc.identify.gait_controller_fit.fit_schedule_with_errors`); empty:
         ordinary least squares.
+    truth : Path or None
+        A trial whose metadata records the controller that made this walk (the simulated
+        trial a lab export was written from): its controller is taken as this trial's, for
+        the errors against the truth and for what the trial's own controller decides (the
+        feedback set with ``feedback="metadata"``, ``P``, the causal phase law). None
+        (default): this trial's own metadata.
     window_strides : int or None
         Method ``smoother``: smooth the fit window in windows of this many whole strides
         (:func:`colloc.data.split.stride_windows`), each with its own states and start,
@@ -125,6 +131,7 @@ class GaitIdentifySettings:
     method: str = "smoother"
     instrument_lags: tuple[int, ...] = DEFAULT_INSTRUMENT_LAGS
     window_strides: int | None = None
+    truth: Path | None = None
 
     def problems(self, *, require_trial: bool = True) -> list[str]:
         """Every problem with the settings (empty when valid); the trial is not read.
@@ -199,6 +206,13 @@ class GaitIdentifySettings:
             out.append(
                 f"window_strides: an option of method 'smoother', found method {self.method!r}"
             )
+        if self.truth is not None and not (
+            isinstance(self.truth, str | Path) and Path(self.truth).is_dir()
+        ):
+            out.append(
+                f"truth: expected the directory of the simulated trial whose controller made "
+                f"this walk, found {self.truth!r}"
+            )
         noise = self.process_noise
         if noise is not None and self.method != "closed-loop":
             out.append(
@@ -226,6 +240,7 @@ class GaitIdentifySettings:
         """Plain values (paths as strings, tuples as lists), for JSON and the run id."""
         out = asdict(self)
         out["trial"] = str(self.trial)
+        out["truth"] = None if self.truth is None else str(self.truth)
         out["track"] = list(self.track)
         out["instrument_lags"] = list(self.instrument_lags)
         if self.process_noise is not None:
