@@ -72,6 +72,16 @@ def test_the_figure_set_shows_the_schedules_with_bands_the_vaf_and_the_held_out_
             assert (figures / f"{stem}{suffix}").stat().st_size > 10_000, stem + suffix
 
 
+def test_the_fitted_angles_figure_says_whose_motion_it_shows(monkeypatch):
+    """The smoother's fit has free torques: its figure must not read as the controller's."""
+    import colloc.identify.gait_outputs as outputs
+    from colloc.identify.gait_settings import METHODS
+
+    assert set(outputs.FITTED_ANGLES) == set(METHODS)
+    assert "not the controller's" in outputs.FITTED_ANGLES["smoother"][0]
+    assert "identified controller" in outputs.FITTED_ANGLES["closed-loop"][0]
+
+
 def test_each_joints_own_gains_are_picked_with_their_errors():
     from types import SimpleNamespace
 
@@ -175,6 +185,10 @@ def test_simulation_without_a_cycle_needs_the_reference_given():
         simulate_walking(None, np.zeros((2, 6)), np.zeros((2, 6, 12)), 1.0, None)
 
 
+# About 20 minutes on a 2-core machine (the priors' effective degrees of freedom solve the
+# KKT system for every disturbance sample): run with -m slow, timed by
+# benchmarks/gait_identify.py --trial tests/identify/data/gait_trial_p20 --process-noise 1,2
+@pytest.mark.slow
 def test_process_noise_fit_estimates_disturbances_and_reports_sandwich_errors(tmp_path):
     """``--process-noise``: motor noise on the six torques and residual forces on the trunk
     become free trajectories of the fit (the solver's numbers are checked against IPOPT in

@@ -132,6 +132,19 @@ def gait_record(run: GaitIdentification, run_id: str) -> RunRecord:
     )
 
 
+#: Title and curve label of the fitted-angles figure per method: what the fitted motion is.
+FITTED_ANGLES: dict[str, tuple[str, str]] = {
+    "smoother": (
+        "fit window: the smoother's motion (torques free, not the controller's)",
+        "smoother's fit",
+    ),
+    "closed-loop": (
+        "fit window: the model closed by the identified controller",
+        "closed-loop fit",
+    ),
+}
+
+
 def save_gait_plots(
     run: GaitIdentification, directory: Path, formats: tuple[str, ...] = ("png", "svg")
 ) -> list[Path]:
@@ -166,7 +179,7 @@ def save_gait_plots(
             )
     figures |= {
         "fitted_angles": plot_angle_comparison(
-            run.times, run.measured, run.fitted, JOINT_NAMES, "fit window", "identified"
+            run.times, run.measured, run.fitted, JOINT_NAMES, *FITTED_ANGLES[run.settings.method]
         ),
         "torque_vaf": plot_torque_vaf(run.validation["torque_vaf"], "held-out torque VAF"),
     }
