@@ -342,3 +342,70 @@ def test_a_truth_that_records_no_controller_is_refused_by_name(tmp_path, capsys)
     assert code == 2
     err = capsys.readouterr().err
     assert "truth: expected the directory of the simulated trial" in err
+
+
+def test_mean_signals_by_phase_is_the_hat_weighted_mean_cycle():
+    """A signal linear in the phase, sampled evenly over many strides: the schedule's mean at
+    an inner point is the signal at that point (the hats are symmetric); a constant is kept
+    exactly; T0 is the controller's own torque at the mean cycle (GainScheduled.torque)."""
+    from sympy.physics.mechanics import dynamicsymbols
+
+    from colloc.control.gain_scheduled import GainScheduled
+    from colloc.identify.gait_estimate import (
+        ControllerEstimate,
+        mean_cycle_torque,
+        mean_signals_by_phase,
+    )
+
+    P = 8
+    gs = GainScheduled(P, dynamicsymbols("s0:2"), dynamicsymbols("T0:6"))
+    phase = np.arange(0, 30 * 4000) / 4000 + 0.125 / 4000  # 30 strides, even samples
+    cycle = np.mod(phase, 1.0)
+    signals = np.column_stack([3.0 + 2.0 * cycle, np.full_like(phase, -1.5)])
+    mean = mean_signals_by_phase(gs, phase, signals)
+    inner = np.arange(1, P)  # point 0's hats straddle the wrap of the linear signal
+    np.testing.assert_allclose(mean[inner, 0], 3.0 + 2.0 * inner / P, atol=1e-9)
+    np.testing.assert_allclose(mean[:, 1], -1.5, atol=1e-12)
+    rng = np.random.default_rng(0)
+    est = ControllerEstimate(rng.normal(size=(P, 6)), rng.normal(size=(P, 6, 2)))
+    at_points = np.array([gs.torque(p / P, mean[p], est.Tstar, est.K)[0] for p in range(P)])
+    np.testing.assert_allclose(mean_cycle_torque(est, mean), at_points, atol=1e-12)
+
+
+def test_t0_of_the_truth_is_the_measured_torque_on_the_mean_cycle(identified):
+    """On the noise-free fixture the true controller's T0 agrees with the measured joint
+    torques averaged per schedule point (an independent mean of what the trial records), and
+    the summary defines what it reports."""
+    from sympy.physics.mechanics import dynamicsymbols
+
+    from colloc.control.gain_scheduled import GainScheduled
+    from colloc.data.columns import TORQUE_COLUMNS
+    from colloc.identify.gait_estimate import mean_signals_by_phase
+
+    _, summary, _, figures = identified
+    t0 = {name: np.asarray(v) for name, v in summary["T0"].items()}
+    assert set(t0) == {"collocation", "direct", "truth"}
+    P = summary["points"]
+    frame = pd.read_csv(FIXTURE / "trial.csv")
+    start, stop = summary["window"]
+    rows = (frame["time"] >= start - 1e-9) & (frame["time"] <= stop + 1e-9)
+    gs = GainScheduled(P, dynamicsymbols("s0:1"), dynamicsymbols("T0:6"))
+    torques = frame.loc[rows, list(TORQUE_COLUMNS)].to_numpy()
+    measured = mean_signals_by_phase(gs, frame.loc[rows, "controller_phase"].to_numpy(), torques)
+    # (not equal: T* and K vary across each point's samples, and the window has few strides:
+    # measured 0.06-0.21 of the range RMS)
+    rms = np.sqrt(np.mean((t0["truth"] - measured) ** 2, axis=0))
+    assert np.all(rms <= 0.25 * np.ptp(measured, axis=0)), (t0["truth"], measured)
+    for j in range(6):
+        assert np.corrcoef(t0["truth"][:, j], measured[:, j])[0, 1] > 0.85, j  # 0.89 at worst
+    # a joint-moment profile, not the intercept T* (hundreds to thousands of N m)
+    assert (
+        np.abs(t0["truth"]).max()
+        < 0.2
+        * np.abs(
+            yaml.safe_load((FIXTURE / "metadata.yaml").read_text())["controller"]["Tstar"]
+        ).max()
+    )
+    for key in ("K_relative_error", "K_relative_bound", "fraction_within_3se", "T0"):
+        assert key in summary["definitions"]
+    assert (figures / "mean_cycle_torque.png").stat().st_size > 10_000

@@ -53,6 +53,7 @@ from colloc.identify.gait_estimate import (
     JOINT_NAMES,
     ControllerEstimate,
     estimate_metrics,
+    mean_signals_by_phase,
     true_controller,
 )
 from colloc.identify.gait_read import (
@@ -118,6 +119,10 @@ class GaitIdentification:
         Hash of the trial's samples and events (:func:`colloc.store.digest_arrays`).
     timings : dict
         Step -> seconds.
+    mean_signals : ndarray, shape (P, n_s)
+        The fed-back signals averaged per schedule point over the fit window
+        (:func:`colloc.identify.gait_estimate.mean_signals_by_phase`): the mean gait cycle
+        on which ``T0 = T* - K s_mean`` is the controller's joint-moment profile.
     peak_rss_mb : float
         The larger of this process's peak resident memory and its largest child's (each
         IPOPT solve runs in a forked child, :mod:`colloc.solve.watchdog`, whose factors this
@@ -142,6 +147,7 @@ class GaitIdentification:
     metrics: dict[str, float | None]
     problem_size: dict[str, int]
     data_digest: str = ""
+    mean_signals: np.ndarray | None = None
     timings: dict[str, float] = field(default_factory=dict)
     peak_rss_mb: float = 0.0
     notes: list[str] = field(default_factory=list)
@@ -278,6 +284,7 @@ def identify_gait(
         metrics=estimate_metrics(collocation, direct, truth, gs.mask),
         problem_size=outcome.problem_size,
         data_digest=trial_digest(data.trial),
+        mean_signals=mean_signals_by_phase(gs, phase, states[:, fb_columns]),
         timings=timings,
         peak_rss_mb=peak_rss_mb(),
         notes=notes,

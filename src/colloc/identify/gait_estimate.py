@@ -56,6 +56,42 @@ def true_controller(
     return ControllerEstimate(Tstar, K)
 
 
+def mean_signals_by_phase(gs: GainScheduled, phase: np.ndarray, signals: np.ndarray) -> np.ndarray:
+    """The fed-back signals averaged per schedule point: ``s_mean(phi_p)``, shape (P, n_s).
+
+    Each sample counts towards the two points around its phase with the schedule's own
+    linear weights (the hat functions the controller interpolates with), so ``s_mean`` is
+    the mean gait cycle as the schedule sees it.
+
+    Parameters
+    ----------
+    gs : GainScheduled
+    phase : ndarray, shape (N,)
+        Unwrapped phase of each sample.
+    signals : ndarray, shape (N, n_s)
+
+    Returns
+    -------
+    ndarray, shape (P, n_s)
+        NaN rows at points no sample reaches.
+    """
+    a, b, w = gs.schedule.bracket(np.asarray(phase, float))
+    P = gs.num_points
+    weight = np.bincount(a, 1.0 - w, P) + np.bincount(b, w, P)
+    total = np.zeros((P, signals.shape[1]))
+    np.add.at(total, a, (1.0 - w)[:, None] * signals)
+    np.add.at(total, b, w[:, None] * signals)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        return total / weight[:, None]
+
+
+def mean_cycle_torque(estimate: ControllerEstimate, mean_signals: np.ndarray) -> np.ndarray:
+    """``T0(phi_p) = T*(phi_p) - K(phi_p) s_mean(phi_p)``: the torque the controller applies
+    on the mean gait cycle, the joint-moment profile a biomechanist reads (``T*`` alone is
+    the intercept on absolute signals, often thousands of N m), shape (P, 6)."""
+    return estimate.Tstar - np.einsum("pij,pj->pi", estimate.K, mean_signals)
+
+
 def estimate_metrics(
     collocation: ControllerEstimate,
     direct: ControllerEstimate,

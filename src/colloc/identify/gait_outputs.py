@@ -9,6 +9,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from colloc.identify.gait import JOINT_NAMES, GaitIdentification
+from colloc.identify.gait_estimate import mean_cycle_torque
 from colloc.identify.summaries import finite_or_none, plain
 from colloc.store import package_versions, run_id_for
 
@@ -23,6 +24,46 @@ def gait_run_id(run: GaitIdentification) -> str:
     """A hash of the settings (the trial's path left out), the trial's data and versions."""
     settings = {k: v for k, v in run.settings.to_dict().items() if k != "trial"}
     return run_id_for(settings, run.data_digest, package_versions())
+
+
+#: What the summary's numbers mean, written into it (``definitions``).
+DEFINITIONS: dict[str, str] = {
+    "K_relative_error": (
+        "|K_est - K_true| / |K_true|, Frobenius norms over all P x 6 x n_s entries (the "
+        "structure's zeros included); only when the true controller is known"
+    ),
+    "Tstar_relative_error": "|T*_est - T*_true| / |T*_true| over all P x 6 entries",
+    "K_relative_bound": (
+        "sqrt(sum of the Cramer-Rao bound's variances of K) / |K|, relative to the truth when "
+        "known, else to the estimate: the relative error no unbiased estimator of this design "
+        "(the fed-back states known) goes below"
+    ),
+    "Tstar_relative_bound": "the same for T*",
+    "fraction_within_3se": (
+        "share of the T* and allowed K entries whose error against the truth is within 3 of "
+        "their standard errors (about 0.99 for honest Gaussian errors)"
+    ),
+    "T0": (
+        "T0(phi_p) = T*(phi_p) - K(phi_p) s_mean(phi_p) [N m] per schedule point and joint: the "
+        "torque each controller applies on the fit window's mean gait cycle s_mean (the "
+        "joint-moment profile; T* alone is the intercept on absolute signals)"
+    ),
+    "torque_vaf": (
+        "1 - var(predicted - measured) / var(measured) of each joint's held-out torque, the "
+        "prediction from the held-out smoothed signals"
+    ),
+    "walks": "the held-out forward simulation under the identified controller did not fall",
+}
+
+
+def mean_cycle_torques(run: GaitIdentification) -> dict[str, np.ndarray]:
+    """``T0`` of each controller of the run (identified, direct, truth when known), (P, 6)."""
+    if run.mean_signals is None:
+        return {}
+    controllers = {"collocation": run.collocation, "direct": run.direct}
+    if run.truth is not None:
+        controllers["truth"] = run.truth
+    return {name: mean_cycle_torque(c, run.mean_signals) for name, c in controllers.items()}
 
 
 def gait_summary(run: GaitIdentification, run_id: str) -> dict[str, Any]:
@@ -66,6 +107,8 @@ def gait_summary(run: GaitIdentification, run_id: str) -> dict[str, Any]:
             "problem": run.problem_size,
             "times": run.timings,
             "peak_rss_mb": run.peak_rss_mb,
+            "T0": mean_cycle_torques(run),
+            "definitions": DEFINITIONS,
             "notes": run.notes,
         }
     )
@@ -114,6 +157,7 @@ def gait_record(run: GaitIdentification, run_id: str) -> RunRecord:
     }
     if est.K_se is not None and est.Tstar_se is not None:
         arrays.update(Tstar_se=est.Tstar_se, K_se=est.K_se)
+    arrays.update({f"T0_{name}": t0 for name, t0 in mean_cycle_torques(run).items()})
     if "simulated_angles" in run.validation:
         arrays.update(
             validation_times=run.validation["times"],
@@ -178,6 +222,11 @@ def save_gait_plots(
                 own, JOINT_NAMES, f"each joint's own {signal} gain K(phi) [{unit}], ±2 SE"
             )
     figures |= {
+        "mean_cycle_torque": plot_schedule(
+            {name: (t0, None) for name, t0 in mean_cycle_torques(run).items()},
+            JOINT_NAMES,
+            "T0(phi) = T*(phi) - K(phi) s_mean(phi) [N m]: torque on the mean gait cycle",
+        ),
         "fitted_angles": plot_angle_comparison(
             run.times, run.measured, run.fitted, JOINT_NAMES, *FITTED_ANGLES[run.settings.method]
         ),
