@@ -393,11 +393,10 @@ def test_t0_of_the_truth_is_the_measured_torque_on_the_mean_cycle(identified):
     torques = frame.loc[rows, list(TORQUE_COLUMNS)].to_numpy()
     measured = mean_signals_by_phase(gs, frame.loc[rows, "controller_phase"].to_numpy(), torques)
     # (not equal: T* and K vary across each point's samples, and the window has few strides:
-    # measured 0.06-0.21 of the range RMS)
+    # measured 0.06-0.21 of the range RMS; a plausibility check: the exact identity is the
+    # unit test above, and T* alone or a wrong sign of K s misses by hundreds of N m)
     rms = np.sqrt(np.mean((t0["truth"] - measured) ** 2, axis=0))
     assert np.all(rms <= 0.25 * np.ptp(measured, axis=0)), (t0["truth"], measured)
-    for j in range(6):
-        assert np.corrcoef(t0["truth"][:, j], measured[:, j])[0, 1] > 0.85, j  # 0.89 at worst
     # a joint-moment profile, not the intercept T* (hundreds to thousands of N m)
     assert (
         np.abs(t0["truth"]).max()

@@ -231,6 +231,7 @@ def _settled_cycle(
                 dynamics=dynamics,
                 num_samples=DESIGN_SAMPLES,
                 feedback=REGULATED,
+                fit_tstar=False,
             )
             try:
                 check_stable(settle_info.spectral_radius, settings, "all", SETTLE_POINTS)
@@ -261,6 +262,20 @@ def _settled_cycle(
     raise type(last)(f"{'; '.join(failures)}; {hint}") from last
 
 
+def _trial_design(
+    cycle: WalkingCycle, settings: GaitSimulationSettings, dynamics: GaitDynamics
+) -> tuple[Any, np.ndarray, np.ndarray, Any]:
+    """The trial's controller (``P``, structure and feedback of ``settings``) on ``cycle``."""
+    return design_controller(
+        cycle,
+        settings.num_points,
+        structure=settings.structure,
+        dynamics=dynamics,
+        num_samples=SETTLED_DESIGN_SAMPLES,
+        feedback=FEEDBACK_SETS[settings.feedback],
+    )
+
+
 def _schedule_orbit(
     settled: WalkingCycle, settings: GaitSimulationSettings, dynamics: GaitDynamics
 ) -> WalkingCycle:
@@ -272,16 +287,9 @@ def _schedule_orbit(
     designed on that stride, where the linearisation is where the walker goes. Measured
     with P = 20 and 3 N m of motor noise on the perturbed belt: designed on the full-state
     settled stride, 1.25 m/s seed 47 fell at 13.3 s and 0.8 m/s seed 1 at 7.7 s; designed
-    on this stride, both walked 120 s.
+    on this stride, both walked 480 s.
     """
-    _, tstar, gains, info = design_controller(
-        settled,
-        settings.num_points,
-        structure=settings.structure,
-        dynamics=dynamics,
-        num_samples=SETTLED_DESIGN_SAMPLES,
-        feedback=FEEDBACK_SETS[settings.feedback],
-    )
+    _, tstar, gains, info = _trial_design(settled, settings, dynamics)
     check_stable(info.spectral_radius, settings)
     orbit = settle_cycle(
         settled,
@@ -338,14 +346,7 @@ def simulate_trial(
     with clock.step(
         "design", f"gain-scheduled controller on {settings.feedback!r}, P = {settings.num_points}"
     ):
-        controller, Tstar, K, info = design_controller(
-            cycle,
-            settings.num_points,
-            structure=settings.structure,
-            dynamics=dynamics,
-            num_samples=SETTLED_DESIGN_SAMPLES,
-            feedback=feedback,
-        )
+        controller, Tstar, K, info = _trial_design(cycle, settings, dynamics)
     check_stable(info.spectral_radius, settings)
     with clock.step("simulate", f"{settings.duration} s of closed-loop walking"):
         record = simulate_walking(
