@@ -305,7 +305,8 @@ def fake_pipeline(monkeypatch, calls, spectral_radius=0.5, settle_error=None):
 
     def settle_cycle(cycle, Tstar_, K_, feedback, **kwargs):
         calls.append(("settle", feedback.tolist(), kwargs))
-        if settle_error is not None and sum(c[0] == "settle" for c in calls) == 2:
+        # every second settle walks the trial's P-point controller (the first the full state)
+        if settle_error is not None and sum(c[0] == "settle" for c in calls) % 2 == 0:
             raise settle_error
         settled = WalkingCycle(
             cycle.times, cycle.states, cycle.torques, cycle.contact_forces,
@@ -444,6 +445,26 @@ def test_a_schedule_stride_that_does_not_settle_leaves_the_full_state_stride(mon
         for n in result.notes
     ), result.notes
     assert any("still differ" in n for n in result.summary["notes"])
+
+
+def test_a_schedule_that_falls_on_a_constant_belt_is_refused_before_the_walk(monkeypatch, tmp_path):
+    """The P-point controller falls on the constant belt at every cycle tried (1.6 m/s at
+    P = 20): nothing is simulated or written, and the message says what would help."""
+    from colloc.gait.settle import WalkerFellError
+    from colloc.gait.workflow import GaitSimulationSettings, UnstableControllerError, simulate_trial
+
+    calls: list = []
+    error = WalkerFellError("settle_cycle: the closed loop did not walk 15 strides")
+    fake_pipeline(monkeypatch, calls, settle_error=error)
+    out = tmp_path / "out"
+    settings = GaitSimulationSettings(duration=6.0, out=out, perturbed=False)
+    with pytest.raises(UnstableControllerError) as info:
+        simulate_trial(settings)
+    message = str(info.value)
+    assert message.count("does not walk a constant belt") == 3  # 60, 100 and 160 nodes
+    assert "a P = 20 schedule cannot hold this speed's stride" in message
+    assert "--points" in message and "nothing was simulated" in message
+    assert not any(c[0] == "simulate" for c in calls) and not out.exists()
 
 
 def test_belt_input_from_the_measured_record():

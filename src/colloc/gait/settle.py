@@ -49,6 +49,11 @@ class CycleNotSettledError(RuntimeError):
     """The closed loop did not settle onto a repeating stride."""
 
 
+class WalkerFellError(CycleNotSettledError):
+    """The closed loop fell on the constant belt (rather than walking strides that still
+    differ)."""
+
+
 def settle_cycle(
     cycle: WalkingCycle,
     Tstar: np.ndarray,
@@ -117,7 +122,7 @@ def settle_cycle(
     )
     strikes = record.right_heel_strikes
     if record.fell or strikes.size < 3:
-        raise CycleNotSettledError(
+        raise WalkerFellError(
             f"settle_cycle: the closed loop did not walk {num_strides} strides on a constant "
             f"belt ({record.message}; {strikes.size} right heel strikes); the controller does "
             "not stabilise the cycle"
@@ -172,5 +177,6 @@ __all__ = [
     "DEFAULT_SETTLE_STRIDES",
     "DEFAULT_SETTLE_TOLERANCE",
     "CycleNotSettledError",
+    "WalkerFellError",
     "settle_cycle",
 ]

@@ -61,7 +61,12 @@ from colloc.gait.settings import (
     GaitSimulationSettings,
     belt_input,
 )
-from colloc.gait.settle import CycleNotSettledError, settle_cycle
+from colloc.gait.settle import (
+    DEFAULT_SETTLE_TOLERANCE,
+    CycleNotSettledError,
+    WalkerFellError,
+    settle_cycle,
+)
 from colloc.gait.strikes import strike_phase
 from colloc.gait.trials import record_to_trial
 from colloc.gait.walking_cycle import WalkingCycle
@@ -96,10 +101,11 @@ SETTLED_DESIGN_SAMPLES = 1201
 SETTLE_POINTS = 200
 
 #: Largest accepted change between the last two strides of the ``P``-point controller's own
-#: stride (:func:`_schedule_orbit`), which serves only as the point the trial's controller
-#: is linearised about: at 1.4 m/s (seed 102's cycle) the P = 20 walker's strides still
-#: differed by 0.013 rad after 19 strides, a small limit cycle of its own.
-ORBIT_TOLERANCE = 0.02
+#: stride (:func:`_schedule_orbit`): the settling tolerance. A stride that still changes is
+#: not used: at 1.4 m/s the P = 20 walker's strides still differed by 0.013 rad after 19
+#: strides, and the controller designed on its last stride fell 1.2 s into the perturbed belt,
+#: where the one designed on the full-state stride walked 120 s.
+ORBIT_TOLERANCE = DEFAULT_SETTLE_TOLERANCE
 
 
 class UnstableControllerError(ValueError):
@@ -216,6 +222,7 @@ def _settled_cycle(
     ``settings.num_nodes`` names one)."""
     tries = AUTO_NUM_NODES if settings.num_nodes is None else (settings.num_nodes,)
     failures: list[str] = []
+    schedule_fell = False
     for nodes in tries:
         with clock.step("cycle", f"periodic walking cycle at {settings.speed} m/s, {nodes} nodes"):
             cycle = find_walking_cycle(
@@ -243,6 +250,15 @@ def _settled_cycle(
         with clock.step("orbit", f"the stride the P = {settings.num_points} controller walks"):
             try:
                 settled = _schedule_orbit(settled, settings, dynamics)
+            except WalkerFellError as error:
+                # a trial under this controller falls at once: say so before the perturbed walk
+                failures.append(
+                    f"{nodes} nodes: the P = {settings.num_points} controller designed on the "
+                    f"settled stride does not walk a constant belt ({error})"
+                )
+                last = UnstableControllerError(failures[-1])
+                schedule_fell = True
+                continue
             except (CycleNotSettledError, UnstableControllerError) as error:
                 # the trial's controller is then designed on the full-state stride
                 notes.append(
@@ -258,6 +274,12 @@ def _settled_cycle(
         if settings.num_nodes is not None
         else f"no cycle of {', '.join(map(str, tries))} nodes settled at this speed"
     )
+    if schedule_fell:
+        hint += (
+            f"; a P = {settings.num_points} schedule cannot hold this speed's stride, so "
+            "nothing was simulated: more schedule points (--points) or a slower speed "
+            "(docs/gait.md: synthetic walks lasted 480 s at 0.8-1.4 m/s)"
+        )
     # the kind of the last failure (an unstable design stays a ValueError for the CLI)
     raise type(last)(f"{'; '.join(failures)}; {hint}") from last
 
