@@ -74,13 +74,41 @@ def plot_angle_comparison(
     -------
     Figure
     """
+    return plot_signal_comparison(
+        times, np.degrees(measured), np.degrees(model), joint_names, title, model_label, "deg"
+    )
+
+
+def plot_signal_comparison(
+    times: np.ndarray,
+    measured: np.ndarray,
+    model: np.ndarray,
+    names: Sequence[str],
+    title: str,
+    model_label: str,
+    unit: str,
+) -> Figure:
+    """Measured and modelled signals against time, one panel per signal.
+
+    Parameters
+    ----------
+    times : ndarray, shape (N,)
+    measured, model : ndarray, shape (N, k) and (M, k), M <= N
+        In ``unit``; ``model`` may end early (a simulation that fell).
+    names : sequence of str
+    title, model_label, unit : str
+
+    Returns
+    -------
+    Figure
+    """
     fig = Figure(figsize=(11, 7), layout="constrained")
-    axes = fig.subplots(len(joint_names), 1, sharex=True)
+    axes = fig.subplots(len(names), 1, sharex=True)
     n = np.asarray(model).shape[0]
     for j, ax in enumerate(np.atleast_1d(axes)):
-        ax.plot(times, np.degrees(measured[:, j]), color="0.6", lw=1, label="measured")
-        ax.plot(times[:n], np.degrees(model[:, j]), lw=1, label=model_label)
-        ax.set_ylabel(f"{joint_names[j]}\n[deg]", fontsize="small")
+        ax.plot(times, measured[:, j], color="0.6", lw=1, label="measured")
+        ax.plot(times[:n], model[:, j], lw=1, label=model_label)
+        ax.set_ylabel(f"{names[j]}\n[{unit}]", fontsize="small")
     np.atleast_1d(axes)[0].legend(fontsize="small", loc="upper right")
     np.atleast_1d(axes)[-1].set_xlabel("time [s]")
     fig.suptitle(title)
