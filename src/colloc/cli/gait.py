@@ -27,7 +27,7 @@ from colloc.cli.common import (
 
 
 def add_parser(sub: Any, default_url: str) -> None:
-    """``colloc gait simulate | identify | trial-from-lab | smooth``."""
+    """``colloc gait simulate | identify | trial-from-lab | smooth | plan``."""
     g = sub.add_parser(
         "gait", help="planar walking: synthetic perturbed-walking trials, controller identification"
     )
@@ -105,10 +105,12 @@ def add_parser(sub: Any, default_url: str) -> None:
 
     _identify_parser(gs, default_url)
     from colloc.cli.lab import add_parser as lab_parser
+    from colloc.cli.plan import add_parser as plan_parser
     from colloc.cli.smooth import add_parser as smooth_parser
 
     lab_parser(gs)
     smooth_parser(gs)
+    plan_parser(gs)
 
 
 def _identify_parser(gs: Any, default_url: str) -> None:
@@ -512,11 +514,18 @@ def _gait_smooth(args: argparse.Namespace) -> int:
     return run(args)
 
 
+def _gait_plan(args: argparse.Namespace) -> int:
+    from colloc.cli.plan import run
+
+    return run(args)
+
+
 GAIT_COMMANDS = {
     "simulate": _gait_simulate,
     "identify": _gait_identify,
     "trial-from-lab": _gait_trial_from_lab,
     "smooth": _gait_smooth,
+    "plan": _gait_plan,
 }
 
 

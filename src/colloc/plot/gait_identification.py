@@ -143,3 +143,43 @@ def plot_torque_vaf(vaf: Mapping[str, Mapping[str, float]], title: str) -> Figur
     ax.legend(fontsize="small")
     ax.set_title(title)
     return fig
+
+
+def plot_bound_against_length(
+    lengths: np.ndarray,
+    bounds: np.ndarray,
+    coefficient: float,
+    target: float | None = None,
+    needed: float | None = None,
+) -> Figure:
+    """The relative Cramér–Rao bound of ``K`` against the fitted length: the pilot's
+    computed bounds, the law ``coefficient / sqrt(length)`` and, when given, the target and
+    the length it needs.
+
+    Parameters
+    ----------
+    lengths, bounds : ndarray
+        Fitted seconds and the bounds computed there.
+    coefficient : float
+    target, needed : float, optional
+
+    Returns
+    -------
+    Figure
+    """
+    fig = Figure(figsize=(7, 4.5), layout="constrained")
+    ax = fig.subplots()
+    top = max(float(np.max(lengths)), needed or 0.0) * 1.5
+    grid = np.linspace(min(float(np.min(lengths)), 10.0), top, 200)
+    ax.plot(grid, 100 * coefficient / np.sqrt(grid), label="c / sqrt(length)")
+    ax.plot(lengths, 100 * np.asarray(bounds), "o", label="the pilot's design")
+    if target is not None:
+        ax.axhline(100 * target, color="0.5", lw=1, ls="--", label=f"target {100 * target:g} %")
+    if needed is not None:
+        ax.axvline(needed, color="0.5", lw=1, ls=":", label=f"{needed:.0f} s fitted")
+    ax.set_xlabel("fitted record [s]")
+    ax.set_ylabel("K bound [% of |K|]")
+    ax.set_yscale("log")
+    ax.legend(fontsize="small")
+    fig.suptitle("Cramér–Rao bound of K against the record's length")
+    return fig

@@ -1,0 +1,258 @@
+"""How long to record: the Cramér–Rao bound of the gain schedule against the record's length.
+
+The bound is the one ``colloc gait identify`` reports (:mod:`colloc.identify.gait_controller_fit`):
+the least squares of ``T = T*(phi) - K(phi) s`` with the fed-back states known and each
+torque equation's noise ``sigma``, ``cov = sigma^2 (D' D)^-1`` per torque, as a relative error
+``sqrt(sum of the variances) / |K|`` against a known controller. Its design ``D`` comes from a
+pilot trial (a walk of the subject, speed, schedule and noise planned for, e.g. from ``colloc
+gait simulate``): the bound is computed on the pilot's first 1/4, 1/2, 3/4 and all of its
+record, the law ``bound = c / sqrt(fitted seconds)`` taken from the whole pilot (the shorter
+parts say whether the pilot is long enough for the law to hold), and the length a target needs
+(or the bound a length reaches) read from it. Measured on the 8-minute trial's fits of 60 to
+360 s (docs/gait.md) the bound fell a little faster than the law from 60 s (5-7 % below it
+at 120-360 s), so a plan from a one-minute pilot errs long.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from colloc.control.gain_scheduled import GainScheduled
+from colloc.data.columns import TORQUE_COLUMNS
+from colloc.identify.direct import schedule_design
+from colloc.identify.gait_controller_fit import relative_spread
+from colloc.identify.gait_read import (
+    gait_phase,
+    measured_states,
+    read_gait_data,
+    recorded_controller,
+    state_names,
+)
+from colloc.identify.gait_settings import GaitIdentifySettings
+from colloc.identify.gait_smoother import trial_noise_std
+
+#: Shares of the pilot record the bound is computed on.
+PILOT_SHARES = (0.25, 0.5, 0.75, 1.0)
+#: Largest relative departure of a shorter part's bound from the 1/sqrt(length) law taken
+#: from the whole pilot before a note says the pilot is too short.
+LAW_TOLERANCE = 0.2
+
+
+@dataclass
+class RecordPlan:
+    """The bound against the fitted length, and what a target needs.
+
+    Attributes
+    ----------
+    fitted_seconds : ndarray
+        Lengths of the pilot's record the bound was computed on.
+    K_bound, Tstar_bound : ndarray
+        The relative bounds there.
+    K_coefficient, Tstar_coefficient : float
+        ``c`` of ``bound = c / sqrt(fitted seconds)``, from the whole pilot.
+    noise_std : float
+        The torque equations' noise [N m].
+    fit_fraction : float
+        Share of a record that is fitted (the rest validates).
+    target_K : float or None
+    needed_fit_seconds, needed_record_seconds : float or None
+        For ``target_K``.
+    record_seconds : float or None
+        A length asked about; ``K_bound_at_length`` its bound.
+    K_bound_at_length : float or None
+    notes : list of str
+    """
+
+    fitted_seconds: np.ndarray
+    K_bound: np.ndarray
+    Tstar_bound: np.ndarray
+    K_coefficient: float
+    Tstar_coefficient: float
+    noise_std: float
+    fit_fraction: float
+    target_K: float | None = None
+    needed_fit_seconds: float | None = None
+    needed_record_seconds: float | None = None
+    record_seconds: float | None = None
+    K_bound_at_length: float | None = None
+    notes: list[str] = field(default_factory=list)
+
+    def to_dict(self) -> dict[str, Any]:
+        """Plain values for JSON."""
+        out = dict(self.__dict__)
+        for key in ("fitted_seconds", "K_bound", "Tstar_bound"):
+            out[key] = np.asarray(out[key]).tolist()
+        return out
+
+
+def design_bounds(
+    controller: GainScheduled,
+    phase: np.ndarray,
+    feedback: np.ndarray,
+    noise_std: float,
+    Tstar: np.ndarray,
+    K: np.ndarray,
+) -> tuple[float, float]:
+    """The relative Cramér–Rao bounds of ``K`` and ``T*`` for this design.
+
+    Parameters
+    ----------
+    controller : GainScheduled
+    phase : ndarray, shape (N,)
+    feedback : ndarray, shape (N, n_s)
+    noise_std : float
+        Each torque equation's noise [N m].
+    Tstar, K : ndarray
+        The controller the bound is relative to.
+
+    Returns
+    -------
+    (float, float)
+        ``K`` and ``T*`` bounds as relative errors.
+    """
+    P, m = Tstar.shape
+    k_var = np.zeros_like(K)
+    t_var = np.zeros_like(Tstar)
+    for i in range(m):
+        design, allowed = schedule_design(controller, phase, feedback, i)
+        variance = noise_std**2 * np.diag(np.linalg.inv(design.T @ design))
+        values = variance.reshape(P, 1 + allowed.size)
+        t_var[:, i] = values[:, 0]
+        k_var[:, i, allowed] = values[:, 1:]
+    return (
+        relative_spread(np.sqrt(k_var), K),
+        relative_spread(np.sqrt(t_var), Tstar),
+    )
+
+
+def plan_record(
+    pilot: str | Path,
+    *,
+    target_k: float | None = None,
+    record_seconds: float | None = None,
+    noise_std: float | None = None,
+    fit_fraction: float = 0.75,
+) -> RecordPlan:
+    """The record a target bound on ``K`` needs, or the bound a record reaches.
+
+    Parameters
+    ----------
+    pilot : path-like
+        A trial whose metadata records its controller (``colloc gait simulate`` writes one):
+        its walk is the design, its controller the reference of the relative bound.
+    target_k : float, optional
+        Relative bound of ``K`` wanted (e.g. 0.2).
+    record_seconds : float, optional
+        A record length to give the bound of.
+    noise_std : float, optional
+        Torque equations' noise [N m]; default the pilot's torque noise and motor noise
+        combined (as ``colloc gait identify`` uses).
+    fit_fraction : float
+        Share of a record fitted.
+
+    Returns
+    -------
+    RecordPlan
+
+    Raises
+    ------
+    ValueError
+        On unusable options or a pilot without a recorded controller (every problem at once).
+    """
+    problems = []
+    for name, value in (("target_k", target_k), ("record_seconds", record_seconds)):
+        if value is not None and not (
+            isinstance(value, int | float) and np.isfinite(value) and value > 0
+        ):
+            problems.append(f"{name}: expected a positive number, found {value!r}")
+    if noise_std is not None and not (
+        isinstance(noise_std, int | float) and np.isfinite(noise_std) and noise_std > 0
+    ):
+        problems.append(f"noise_std: expected N m > 0, found {noise_std!r}")
+    if not (isinstance(fit_fraction, int | float) and 0 < fit_fraction < 1):
+        problems.append(f"fit_fraction: expected a number in (0, 1), found {fit_fraction!r}")
+    if problems:
+        raise ValueError("plan_record: " + "; ".join(problems))
+    # read and checked as identify reads a trial (its split does not matter here: the
+    # whole pilot is the design)
+    data = read_gait_data(GaitIdentifySettings(trial=Path(pilot), fit_fraction=0.5))
+    meta = data.trial.metadata
+    recorded = recorded_controller(meta)
+    if recorded is None or not {"Tstar", "K"} <= set(recorded):
+        raise ValueError(
+            f"pilot: expected a trial whose metadata records its controller (colloc gait "
+            f"simulate writes one), found none in {str(pilot)!r}"
+        )
+    from sympy.physics.mechanics import dynamicsymbols
+
+    Tstar, K = np.asarray(recorded["Tstar"], float), np.asarray(recorded["K"], float)
+    controller = GainScheduled(
+        data.points,
+        dynamicsymbols(list(data.feedback)),
+        dynamicsymbols([c.removesuffix("_torque") for c in TORQUE_COLUMNS]),
+    )
+    trial = data.trial
+    phase = gait_phase("causal", trial, trial.time, trial.signals)
+    index = {n: i for i, n in enumerate(state_names())}
+    states = measured_states(trial.time, trial.signals, 0.05)[:, [index[n] for n in data.feedback]]
+    notes = []
+    if noise_std is None:
+        motor = meta.get("motor_noise")
+        motor_std = float(motor.get("std", 0.0)) if isinstance(motor, dict) else 0.0
+        noise_std = float(np.hypot(trial_noise_std(meta, TORQUE_COLUMNS[0]), motor_std))
+        notes.append(
+            f"torque noise {noise_std:.3g} N m: the pilot's torque noise and motor noise combined"
+        )
+    # the causal phase starts at the first right heel strike
+    known = np.isfinite(phase)
+    first = trial.time[known][0]
+    span = trial.time[known][-1] - first
+    lengths, k_bounds, t_bounds = [], [], []
+    for share in PILOT_SHARES:
+        rows = known & (trial.time <= first + share * span + 1e-9)
+        try:
+            k, t = design_bounds(controller, phase[rows], states[rows], noise_std, Tstar, K)
+        except np.linalg.LinAlgError:
+            continue  # too short a part to determine the schedule
+        if not (np.isfinite(k) and np.isfinite(t)):
+            continue
+        lengths.append(share * span)
+        k_bounds.append(k)
+        t_bounds.append(t)
+    if not lengths:
+        raise ValueError(
+            f"pilot: its {span:.1f} s do not determine the P = {data.points} schedule; "
+            "simulate a longer pilot"
+        )
+    # the law from the whole pilot, whose design is the best determined; the shorter parts
+    # say whether the pilot is long enough for the law to hold
+    k_c = float(k_bounds[-1] * np.sqrt(lengths[-1]))
+    t_c = float(t_bounds[-1] * np.sqrt(lengths[-1]))
+    for length, bound in zip(lengths[:-1], k_bounds[:-1], strict=True):
+        law = k_c / np.sqrt(length)
+        if abs(bound / law - 1.0) > LAW_TOLERANCE:
+            notes.append(
+                f"the bound on {length:.0f} s of the pilot is {bound:.3g}, {bound / law:.2f} "
+                f"times the 1/sqrt(length) law's {law:.3g}: the pilot is short of where the "
+                "law holds, so a longer record than planned may be needed; plan from a longer "
+                "pilot"
+            )
+    plan = RecordPlan(
+        np.asarray(lengths), np.asarray(k_bounds), np.asarray(t_bounds), k_c, t_c,
+        float(noise_std), float(fit_fraction), notes=notes,
+    )  # fmt: skip
+    if target_k is not None:
+        plan.target_K = float(target_k)
+        plan.needed_fit_seconds = (k_c / target_k) ** 2
+        plan.needed_record_seconds = plan.needed_fit_seconds / fit_fraction
+    if record_seconds is not None:
+        plan.record_seconds = float(record_seconds)
+        plan.K_bound_at_length = k_c / np.sqrt(record_seconds * fit_fraction)
+    return plan
+
+
+__all__ = ["LAW_TOLERANCE", "PILOT_SHARES", "RecordPlan", "design_bounds", "plan_record"]

@@ -1,0 +1,88 @@
+"""colloc gait plan: the bound of the schedule's design against the record's length."""
+
+import json
+import shutil
+from pathlib import Path
+
+import numpy as np
+import pytest
+import yaml
+from sympy.physics.mechanics import dynamicsymbols
+
+from colloc.cli import main
+from colloc.control.gain_scheduled import GainScheduled
+from colloc.data.columns import TORQUE_COLUMNS
+from colloc.data.trial import read_trial
+from colloc.identify.gait_controller_fit import fit_schedule_with_errors, relative_spread
+from colloc.identify.gait_plan import design_bounds, plan_record
+from colloc.identify.gait_read import gait_phase, measured_states, state_names
+
+FIXTURE = Path(__file__).parent / "data" / "gait_trial_p20"
+
+
+def _design():
+    trial = read_trial(FIXTURE)
+    controller_meta = trial.metadata["controller"]
+    names = list(controller_meta["feedback"])
+    Tstar, K = np.asarray(controller_meta["Tstar"]), np.asarray(controller_meta["K"])
+    gs = GainScheduled(Tstar.shape[0], dynamicsymbols(names), dynamicsymbols("T0:6"))
+    phase = gait_phase("causal", trial, trial.time, trial.signals)
+    index = {n: i for i, n in enumerate(state_names())}
+    states = measured_states(trial.time, trial.signals, 0.05)[:, [index[n] for n in names]]
+    known = np.isfinite(phase)
+    torques = trial.signals[list(TORQUE_COLUMNS)].to_numpy()[known]
+    return gs, phase[known], states[known], torques, Tstar, K
+
+
+def test_the_design_bound_is_the_fits_bound_and_falls_as_one_over_root_length():
+    gs, phase, states, torques, Tstar, K = _design()
+    k_bound, t_bound = design_bounds(gs, phase, states, 2.0, Tstar, K)
+    # the bound identify reports for the same design and noise (its own code path)
+    fit = fit_schedule_with_errors(
+        gs, phase, states, torques, np.floor(phase).astype(int), np.full(6, 2.0)
+    )
+    assert k_bound == pytest.approx(relative_spread(fit.K_bound, K), rel=1e-6)
+    assert t_bound == pytest.approx(relative_spread(fit.Tstar_bound, Tstar), rel=1e-6)
+    # the same walk twice is twice the information: the bound / sqrt(2), exactly
+    twice = design_bounds(gs, np.r_[phase, phase], np.vstack([states, states]), 2.0, Tstar, K)
+    assert twice[0] == pytest.approx(k_bound / np.sqrt(2.0), rel=1e-6)
+    # and it is proportional to the noise
+    assert design_bounds(gs, phase, states, 4.0, Tstar, K)[0] == pytest.approx(2 * k_bound)
+
+
+def test_the_plan_reads_the_law_off_the_whole_pilot():
+    plan = plan_record(FIXTURE, target_k=0.2, record_seconds=300.0, fit_fraction=0.75)
+    gs, phase, states, _, Tstar, K = _design()
+    whole = design_bounds(gs, phase, states, plan.noise_std, Tstar, K)[0]
+    assert plan.K_bound[-1] == pytest.approx(whole, rel=1e-6)
+    assert plan.K_coefficient == pytest.approx(whole * np.sqrt(plan.fitted_seconds[-1]))
+    assert plan.K_coefficient / np.sqrt(plan.needed_fit_seconds) == pytest.approx(0.2)
+    assert plan.needed_record_seconds == pytest.approx(plan.needed_fit_seconds / 0.75)
+    assert plan.K_bound_at_length == pytest.approx(plan.K_coefficient / np.sqrt(225.0))
+    # a 14 s pilot is far too short for the law: the plan says so
+    assert any("short of where the law holds" in n for n in plan.notes)
+
+
+def test_the_command_writes_the_plan_and_refuses_what_it_cannot_plan(tmp_path, capsys):
+    out = tmp_path / "plan"
+    code = main(
+        ["gait", "plan", str(FIXTURE), "--target-k", "0.2", "--out", str(out)]
+        + ["--json", str(out / "plan.json")]
+    )
+    assert code == 0
+    printed = capsys.readouterr().out
+    assert "for a K bound of 20 %: fit" in printed
+    summary = json.loads((out / "plan.json").read_text())
+    assert summary["target_K"] == 0.2 and summary["needed_record_seconds"] > 0
+    assert (out / "bound_against_length.png").stat().st_size > 10_000
+    assert main(["gait", "plan", str(FIXTURE)]) == 2
+    assert "expected at least one, found neither" in capsys.readouterr().err
+    pilot = tmp_path / "pilot"
+    shutil.copytree(FIXTURE, pilot)
+    meta = yaml.safe_load((pilot / "metadata.yaml").read_text())
+    del meta["controller"]
+    (pilot / "metadata.yaml").write_text(yaml.safe_dump(meta))
+    assert main(["gait", "plan", str(pilot), "--length", "60"]) == 2
+    assert "pilot: expected a trial whose metadata records its controller" in (
+        capsys.readouterr().err
+    )
