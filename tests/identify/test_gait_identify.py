@@ -408,3 +408,21 @@ def test_t0_of_the_truth_is_the_measured_torque_on_the_mean_cycle(identified):
     for key in ("K_relative_error", "K_relative_bound", "fraction_within_3se", "T0"):
         assert key in summary["definitions"]
     assert (figures / "mean_cycle_torque.png").stat().st_size > 10_000
+
+
+def test_the_summary_says_which_subject_and_model_constants_the_fit_used(identified):
+    from dataclasses import asdict
+
+    from colloc.models.gait2d_params import load_parameters
+
+    summary = identified[1]
+    meta = yaml.safe_load((FIXTURE / "metadata.yaml").read_text())
+    mass, height = meta["body_mass"], meta["height"]
+    assert summary["model"]["subject"] == f"{mass:g} kg, {height:g} m (the trial's metadata)"
+    expected = asdict(load_parameters(mass, height))
+    constants = summary["model"]["constants"]
+    assert constants["body_mass"] == mass and constants["gravity"] == expected["gravity"]
+    for segment in ("trunk", "thigh", "shank", "foot"):
+        for key, value in expected[segment].items():
+            assert constants[segment][key] == pytest.approx(value), (segment, key)
+    assert constants["contact"] == pytest.approx(expected["contact"])

@@ -40,7 +40,7 @@ from __future__ import annotations
 
 import time
 from collections.abc import Callable
-from dataclasses import dataclass, field
+from dataclasses import asdict, dataclass, field
 from typing import Any
 
 import numpy as np
@@ -123,6 +123,10 @@ class GaitIdentification:
         The fed-back signals averaged per schedule point over the fit window
         (:func:`colloc.identify.gait_estimate.mean_signals_by_phase`): the mean gait cycle
         on which ``T0 = T* - K s_mean`` is the controller's joint-moment profile.
+    model : dict
+        ``subject`` (mass and height and where they came from) and ``constants``: every
+        number of the gait2d model the fit used (:class:`colloc.models.gait2d_params.
+        Gait2DParameters`: segments, contact, gravity).
     peak_rss_mb : float
         The larger of this process's peak resident memory and its largest child's (each
         IPOPT solve runs in a forked child, :mod:`colloc.solve.watchdog`, whose factors this
@@ -148,6 +152,7 @@ class GaitIdentification:
     problem_size: dict[str, int]
     data_digest: str = ""
     mean_signals: np.ndarray | None = None
+    model: dict[str, Any] = field(default_factory=dict)
     timings: dict[str, float] = field(default_factory=dict)
     peak_rss_mb: float = 0.0
     notes: list[str] = field(default_factory=list)
@@ -209,6 +214,12 @@ def identify_gait(
     meta = data.trial.metadata
     dyn = gait_dynamics(*subject(meta))
     notes.append(subject_note(meta))
+    from colloc.models.gait2d_params import load_parameters
+
+    model_facts = {
+        "subject": subject_note(meta).removeprefix("subject: "),
+        "constants": asdict(load_parameters(*subject(meta))),
+    }
     if settings.truth is not None:
         notes.append(
             f"true controller: {settings.truth}'s (its P, feedback and phase law used as this "
@@ -285,6 +296,7 @@ def identify_gait(
         problem_size=outcome.problem_size,
         data_digest=trial_digest(data.trial),
         mean_signals=mean_signals_by_phase(gs, phase, states[:, fb_columns]),
+        model=model_facts,
         timings=timings,
         peak_rss_mb=peak_rss_mb(),
         notes=notes,

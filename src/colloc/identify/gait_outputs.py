@@ -107,6 +107,7 @@ def gait_summary(run: GaitIdentification, run_id: str) -> dict[str, Any]:
             "problem": run.problem_size,
             "times": run.timings,
             "peak_rss_mb": run.peak_rss_mb,
+            "model": run.model,
             "T0": mean_cycle_torques(run),
             "definitions": DEFINITIONS,
             "notes": run.notes,
