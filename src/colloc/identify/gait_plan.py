@@ -119,7 +119,9 @@ def design_bounds(
     t_var = np.zeros_like(Tstar)
     for i in range(m):
         design, allowed = schedule_design(controller, phase, feedback, i)
-        variance = noise_std**2 * np.diag(np.linalg.inv(design.T @ design))
+        # (a rounding-negative diagonal of a nearly singular design counts as zero, as the
+        # fit's bound does)
+        variance = np.clip(noise_std**2 * np.diag(np.linalg.inv(design.T @ design)), 0, None)
         values = variance.reshape(P, 1 + allowed.size)
         t_var[:, i] = values[:, 0]
         k_var[:, i, allowed] = values[:, 1:]
