@@ -96,7 +96,7 @@ def run(args: argparse.Namespace) -> int:
         report_problems("colloc gait smooth", [str(error)])
         return 2
     table = smoothed_table(result)
-    summary = smooth_summary(result)
+    summary = smooth_summary(result, table)
     out: Path = args.out
     out.mkdir(parents=True, exist_ok=True)
     temporary = out / f".{TABLE_FILE}.part"

@@ -33,7 +33,7 @@ from colloc.identify.gait_read import (
     state_names,
 )
 from colloc.identify.gait_settings import GaitIdentifySettings
-from colloc.identify.gait_smoother import trial_noise_std
+from colloc.identify.gait_smoother import torque_equation_noise, trial_noise_std
 
 #: Shares of the pilot record the bound is computed on.
 PILOT_SHARES = (0.25, 0.5, 0.75, 1.0)
@@ -203,9 +203,8 @@ def plan_record(
     states = measured_states(trial.time, trial.signals, 0.05)[:, [index[n] for n in data.feedback]]
     notes = []
     if noise_std is None:
-        motor = meta.get("motor_noise")
-        motor_std = float(motor.get("std", 0.0)) if isinstance(motor, dict) else 0.0
-        noise_std = float(np.hypot(trial_noise_std(meta, TORQUE_COLUMNS[0]), motor_std))
+        combined = torque_equation_noise(meta)
+        noise_std = trial_noise_std(meta, TORQUE_COLUMNS[0]) if combined is None else combined
         notes.append(
             f"torque noise {noise_std:.3g} N m: the pilot's torque noise and motor noise combined"
         )

@@ -163,11 +163,12 @@ def smoothed_table(run: SmoothedTrial) -> pd.DataFrame:
     return pd.concat(frames, ignore_index=True)
 
 
-def smooth_summary(run: SmoothedTrial) -> dict[str, Any]:
+def smooth_summary(run: SmoothedTrial, table: pd.DataFrame | None = None) -> dict[str, Any]:
     """What a reader needs of the fit: how close it came to the record (angles and, when
     recorded, torques, RMS per joint), the residual forces (RMS and largest), each window's
-    stages and cost, and the notes."""
-    table = smoothed_table(run)
+    stages and cost, and the notes. ``table``: :func:`smoothed_table` of ``run`` when the
+    caller has it already."""
+    table = smoothed_table(run) if table is None else table
     measured = run.trial.signals.iloc[run.rows].reset_index(drop=True)
     times = run.trial.time[run.rows]
     # the record at the nodes (every window starts at one of its samples)

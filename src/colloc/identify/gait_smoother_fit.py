@@ -9,7 +9,6 @@ from typing import Any
 import numpy as np
 
 from colloc.control.gain_scheduled import GainScheduled
-from colloc.data.columns import TORQUE_COLUMNS
 from colloc.identify.gait_estimate import (
     ControllerEstimate,
 )
@@ -32,7 +31,7 @@ def smoother_fit(c: FitContext) -> Fit:
     the interval midpoints), with stride-sandwich errors and the bound of the design
     (:mod:`colloc.identify.gait_controller_fit`)."""
     from colloc.identify.gait_controller_fit import fit_schedule_with_errors, instruments_pay
-    from colloc.identify.gait_smoother import trial_noise_std
+    from colloc.identify.gait_smoother import torque_equation_noise
     from colloc.identify.gait_windows import smooth_windows
 
     settings, data, gs = c.settings, c.data, c.gs
@@ -68,10 +67,8 @@ def smoother_fit(c: FitContext) -> Fit:
     columns = [index[n] for n in data.feedback]
     feedback, instrument_feedback = mid_states[:, columns], lag_states[:, columns]
     strides = np.searchsorted(data.trial.right_heel_strikes, mid_t)
-    torque_std = trial_noise_std(meta, TORQUE_COLUMNS[0])
-    motor = meta.get("motor_noise")
-    motor_std = float(motor.get("std", 0.0)) if isinstance(motor, dict) else None
-    noise = None if motor_std is None else np.full(6, np.hypot(torque_std, motor_std))
+    combined = torque_equation_noise(meta)
+    noise = None if combined is None else np.full(6, combined)
     c.say(
         "controller",
         f"schedule fit at {int(ok.sum())} points where the dynamics hold, sandwich over strides",
