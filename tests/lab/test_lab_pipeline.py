@@ -79,6 +79,31 @@ def test_a_simulated_walk_comes_back_from_its_markers_and_plates(walk):
     assert noise["std"]["ground_reaction_force"] == pytest.approx(2.0, rel=0.35)
 
 
+def test_the_trial_keeps_the_raw_markers_and_plates_with_their_gaps(walk, tmp_path):
+    params = load_parameters(*SUBJECT)
+    export = lab_export_from_record(walk, params, seed=3)
+    export.markers["RLEK"][50:53] = np.nan  # a gap of three samples: filled in the signals
+    trial = process_lab(export, LabSettings(*SUBJECT, belt_speed="RightBeltSpeed")).trial
+    markers, plates = trial.tables["markers"], trial.tables["plates"]
+    # exactly what the export holds: not filtered, the gap left as a gap
+    for name, xy in export.markers.items():
+        if f"{name}_x" in markers:
+            np.testing.assert_array_equal(markers[[f"{name}_x", f"{name}_y"]].to_numpy(), xy)
+    assert markers["RLEK_x"].isna().sum() == 3
+    np.testing.assert_array_equal(plates["time"], export.time)
+    np.testing.assert_array_equal(
+        plates[["right_force_x", "right_force_y", "right_moment"]], export.plates["FP2"]
+    )
+    meta = trial.metadata
+    assert meta["markers"]["segments"]["RLEK"] == "right_thigh"
+    assert meta["markers"]["segments"]["LSHO"] == "trunk"
+    assert meta["markers"]["noise_std_m"] == pytest.approx(1e-3, rel=0.1)
+    assert meta["plates"]["force_noise_std_n"] == pytest.approx(2.0, rel=0.35)
+    assert meta["plates"]["moment_noise_std_nm"] == pytest.approx(1.0, rel=0.35)
+    back = read_trial(trial.write(tmp_path / "t"))
+    assert sorted(back.tables) == ["markers", "plates"]
+
+
 def test_trial_from_lab_writes_a_trial_that_reads_back_with_what_was_done(walk, tmp_path, capsys):
     params = load_parameters(*SUBJECT)
     export = lab_export_from_record(walk, params, seed=4, noise=LabNoise(0.001, 2.0, 1.0))

@@ -7,6 +7,7 @@ import copy
 import numpy as np
 
 from colloc.data.columns import SIDES
+from colloc.data.tables import slice_tables
 from colloc.data.trial import Trial
 
 MIN_STRIDES = 2
@@ -95,8 +96,9 @@ def take_rows(trial: Trial, rows: np.ndarray) -> Trial:
     Returns
     -------
     Trial
-        Its times and signals, the heel strikes inside its time range, and a deep copy of
-        the metadata.
+        Its times and signals, the heel strikes inside its time range, a deep copy of the
+        metadata, and the rows of its tables (markers, plates) within half a sample of its
+        time range.
     """
     rows = np.asarray(rows)
     time = trial.time[rows]
@@ -105,7 +107,11 @@ def take_rows(trial: Trial, rows: np.ndarray) -> Trial:
         all_strikes = getattr(trial, f"{side}_heel_strikes")
         strikes[side] = all_strikes[(all_strikes >= time[0]) & (all_strikes <= time[-1])]
     signals = trial.signals.iloc[rows].reset_index(drop=True)
-    return Trial(time, signals, strikes["right"], strikes["left"], copy.deepcopy(trial.metadata))
+    step = float(np.median(np.diff(trial.time))) if trial.time.size > 1 else 0.0
+    tables = slice_tables(trial.tables, float(time[0]), float(time[-1]), 0.5 * step)
+    return Trial(
+        time, signals, strikes["right"], strikes["left"], copy.deepcopy(trial.metadata), tables
+    )
 
 
 def stride_windows(

@@ -13,6 +13,8 @@ On-disk layout (one directory per trial)::
                         ``height`` [m], ``units`` (column -> unit, must agree with the
                         canonical units), and anything else, e.g. the true controller of
                         a synthetic trial as an arbitrary nested mapping.
+        markers.csv,    optional: the lab's raw markers and plates at their own rates
+        plates.csv      (:mod:`colloc.data.tables`).
 
 Heel strikes live in their own small file rather than as a sparse column because they are
 events, not samples: they need not fall on a sample time, and the two sides are
@@ -46,6 +48,7 @@ from colloc.data.checks import (
     time_problems,
 )
 from colloc.data.columns import COLUMN_UNITS, SIDES, TIME_COLUMN
+from colloc.data.tables import read_tables, table_file_names, tables_problems, write_tables
 from colloc.data.yaml_io import safe_load_unique
 
 TRIAL_FILE_NAMES: tuple[str, ...] = ("trial.csv", "trial.tsv")
@@ -75,6 +78,9 @@ class Trial:
         Heel-strike times [s] of each foot, increasing.
     metadata : dict
         Free-form metadata; see the module docstring for the keys that are checked.
+    tables : dict, optional
+        The lab's raw records at their own rates, by name (``markers``, ``plates``; see
+        :mod:`colloc.data.tables`); empty for a trial that has none.
 
     Notes
     -----
@@ -87,6 +93,7 @@ class Trial:
     right_heel_strikes: np.ndarray
     left_heel_strikes: np.ndarray
     metadata: dict[str, Any] = field(default_factory=dict)
+    tables: dict[str, pd.DataFrame] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
         if not isinstance(self.signals, pd.DataFrame):
@@ -131,6 +138,7 @@ class Trial:
         for side in SIDES:
             found += heel_strike_problems(side, getattr(self, f"{side}_heel_strikes"), self.time)
         found += metadata_problems(self.metadata, [TIME_COLUMN, *columns])
+        found += tables_problems(self.tables)
         found += plausibility_problems(
             self.time,
             self.signals,
@@ -233,6 +241,7 @@ class Trial:
             }
         with open(directory / METADATA_FILE_NAME, "w", encoding="utf-8") as stream:
             yaml.safe_dump(_plain(metadata), stream, sort_keys=False, allow_unicode=True)
+        write_tables(directory, self.tables)
 
 
 def replace_refusal(directory: str | os.PathLike[str]) -> str | None:
@@ -240,7 +249,7 @@ def replace_refusal(directory: str | os.PathLike[str]) -> str | None:
 
     A trial replaces only what a trial is: a missing path, an empty folder, or a folder
     holding nothing but the files a trial is made of (``trial.csv`` or ``trial.tsv``,
-    ``events.csv``, ``metadata.yaml``). Anything else in the folder (another file, a
+    ``events.csv``, ``metadata.yaml``, ``markers.csv``, ``plates.csv``). Anything else in the folder (another file, a
     subfolder, a hidden file) may be a user's and is never deleted.
 
     Parameters
@@ -259,7 +268,7 @@ def replace_refusal(directory: str | os.PathLike[str]) -> str | None:
     if target.is_symlink() or not target.is_dir():
         kind = "a link" if target.is_symlink() else "a file"
         return f"{str(target)!r} is {kind}, not a trial folder; it is left as it is"
-    allowed = {*TRIAL_FILE_NAMES, EVENTS_FILE_NAME, METADATA_FILE_NAME}
+    allowed = {*TRIAL_FILE_NAMES, EVENTS_FILE_NAME, METADATA_FILE_NAME, *table_file_names()}
     try:
         entries = sorted(os.listdir(target))
     except OSError as error:
@@ -510,6 +519,7 @@ def read_trial(
     frame = _read_frame(series_path, problems)
     strikes = _read_events(directory / EVENTS_FILE_NAME, problems)
     metadata = _read_metadata(directory / METADATA_FILE_NAME, problems)
+    tables = read_tables(directory, problems)
     if frame is not None and TIME_COLUMN not in frame.columns:
         problems.append(f"missing time column {TIME_COLUMN!r}, found {list(frame.columns)[:5]}...")
         frame = None
@@ -518,7 +528,7 @@ def read_trial(
     problems += _raw_column_problems(frame)
     time = pd.to_numeric(frame[TIME_COLUMN], errors="coerce").to_numpy(dtype=float)
     signals = frame.drop(columns=TIME_COLUMN).apply(pd.to_numeric, errors="coerce")
-    trial = Trial(time, signals, strikes["right"], strikes["left"], metadata)
+    trial = Trial(time, signals, strikes["right"], strikes["left"], metadata, tables)
     problems += trial.problems(sampling_tolerance)
     if problems:
         raise TrialError(str(path), problems)

@@ -14,7 +14,10 @@ The steps a gait lab takes, each stated in the trial's metadata (``lab``):
 5. inverse dynamics of each leg with gait2d's segments for the subject's mass and height and
    the plate under its foot (:mod:`colloc.lab.dynamics`);
 6. heel strikes where a foot's filtered vertical force rises through ``strike_threshold``;
-   centre of pressure ``MomZ / ForY`` where the foot is loaded.
+   centre of pressure ``MomZ / ForY`` where the foot is loaded;
+7. the landmarks' unfiltered positions (gaps left as gaps) and the plates at their own rate
+   kept beside the signals (:mod:`colloc.lab.raw_tables`), for the smoother that tracks
+   them.
 
 The noise levels the identification weighs the signals by are estimated from the record
 itself: the robust spread (1.4826 times the median absolute deviation) of the unfiltered minus
@@ -65,6 +68,7 @@ from colloc.lab.plausibility import (
     spikes,
     threshold_problems,
 )
+from colloc.lab.raw_tables import raw_records
 from colloc.lab.sagittal import plates_under_feet
 from colloc.lab.settings import LabSettings, check_settings
 from colloc.models.gait2d_params import Gait2DParameters, load_parameters
@@ -261,7 +265,11 @@ def process_lab(
         "lab": _processing(settings, fs, gaps, time, lengths, strikes, notes),
         "package_versions": package_versions(),
     }
-    trial = Trial(time, signals, strikes["right"], strikes["left"], metadata)
+    tables, recorded = raw_records(
+        time, {name: xy[span] for name, xy in wanted.items()}, plates, ms, noise["marker_std"]
+    )
+    metadata.update(recorded)
+    trial = Trial(time, signals, strikes["right"], strikes["left"], metadata, tables)
     trial.validate()
     return LabResult(trial=trial, gaps=gaps, notes=notes)
 
