@@ -238,6 +238,15 @@ def _identify_parser(gs: Any, default_url: str) -> None:
         "metadata: a lab export of a simulated walk scored like the walk itself",
     )
     idp.add_argument(
+        "--smooth-from",
+        choices=gi.SMOOTH_SOURCES,
+        default=d.smooth_from,
+        help="method smoother: what the smoother tracks: 'markers', a lab trial's raw markers and "
+        "plates; 'angles', the trial's angles, trunk pose and torques (a lab's through its 6 Hz "
+        "filter, inverse kinematics and dynamics); 'auto', markers when the trial has them "
+        "(default %(default)s)",
+    )
+    idp.add_argument(
         "--window-strides",
         type=positive_int,
         default=d.window_strides,
@@ -321,6 +330,7 @@ def gait_identify_checks(
         instrument_lags=args.instrument_lags,
         window_strides=args.window_strides,
         truth=args.truth,
+        smooth_from=args.smooth_from,
     )
     outputs = output_problems(args.json, None if args.no_plots else args.out)
     spread = []

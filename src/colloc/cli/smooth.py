@@ -49,6 +49,14 @@ def add_parser(gs: Any) -> None:
         help="smooth in windows of N whole strides (memory follows the window; default one)",
     )
     sp.add_argument(
+        "--smooth-from",
+        choices=("auto", "markers", "angles"),
+        default="auto",
+        help="what the smoother tracks: 'markers', a lab trial's raw markers and plates; "
+        "'angles', the trial's angles, trunk pose and torques; 'auto', markers when the trial "
+        "has them (default %(default)s)",
+    )
+    sp.add_argument(
         "--overwrite",
         action="store_true",
         help=f"replace {TABLE_FILE} and {SUMMARY_FILE} already in --out",
@@ -90,6 +98,7 @@ def run(args: argparse.Namespace) -> int:
             start=args.start,
             duration=args.duration,
             window_strides=args.window_strides,
+            smooth_from=args.smooth_from,
             progress=step_printer(start),
         )
     except (ValueError, FileNotFoundError) as error:

@@ -33,6 +33,12 @@ SCHEMES = ("midpoint", "backward-euler")
 #: constrained Gauss-Newton (exact on noise-free trials; diverges on noisy ones).
 METHODS = ("smoother", "closed-loop")
 STRUCTURES = ("full", "joint-isolated")
+#: ``--smooth-from``: what the smoother tracks. ``markers``: the lab's raw markers and plates
+#: (a lab trial's ``markers.csv`` and ``plates.csv``; colloc.identify.gait_markers);
+#: ``angles``: the trial's angles, trunk pose and torques (a simulated trial's, or a lab's
+#: through its 6 Hz filter, inverse kinematics and dynamics); ``auto``: markers when the
+#: trial has them.
+SMOOTH_SOURCES = ("auto", "markers", "angles")
 #: Schedule points when neither ``points`` nor the trial's metadata give them.
 DEFAULT_POINTS = 20
 #: The smoother fit's instruments: the fed-back states one and two samples earlier. Measured
@@ -97,6 +103,8 @@ class GaitIdentifySettings:
         fed-back states this many samples earlier as instruments
         (:func:`colloc.identify.gait_controller_fit.fit_schedule_with_errors`); empty:
         ordinary least squares.
+    smooth_from : str
+        One of :data:`SMOOTH_SOURCES` (method ``smoother``).
     truth : Path or None
         A trial whose metadata records the controller that made this walk (the simulated
         trial a lab export was written from): its controller is taken as this trial's, for
@@ -132,6 +140,7 @@ class GaitIdentifySettings:
     instrument_lags: tuple[int, ...] = DEFAULT_INSTRUMENT_LAGS
     window_strides: int | None = None
     truth: Path | None = None
+    smooth_from: str = "auto"
 
     def problems(self, *, require_trial: bool = True) -> list[str]:
         """Every problem with the settings (empty when valid); the trial is not read.
@@ -158,6 +167,7 @@ class GaitIdentifySettings:
             ("phase", PHASES),
             ("guess", GUESSES),
             ("method", METHODS),
+            ("smooth_from", SMOOTH_SOURCES),
         ):
             if getattr(self, name) not in choices:
                 out.append(

@@ -24,10 +24,13 @@ from colloc.data.split import stride_windows
 from colloc.data.trial import Trial, read_trial
 from colloc.gait.metadata import STATE_SIGNAL_NAMES
 from colloc.identify.gait_read import subject
+from colloc.identify.gait_settings import SMOOTH_SOURCES
 from colloc.identify.gait_windows import (
+    SOURCE_WORDS,
     WindowMap,
     prefixed,
     smooth_windows,
+    smoothing_source,
     window_facts,
     window_jobs,
 )
@@ -74,6 +77,7 @@ def smooth_trial(
     start: float = 0.0,
     duration: float | None = None,
     window_strides: int | None = None,
+    smooth_from: str = "auto",
     progress: Progress | None = None,
     map_windows: WindowMap | None = None,
 ) -> SmoothedTrial:
@@ -88,6 +92,10 @@ def smooth_trial(
     window_strides : int, optional
         Smooth in windows of this many whole strides (memory follows the window); None: one
         window.
+    smooth_from : str
+        What the smoother tracks: ``markers`` (a lab trial's raw markers and plates),
+        ``angles`` (its angles, trunk pose and torques) or ``auto`` (default: markers when
+        the trial has them; :data:`colloc.identify.gait_settings.SMOOTH_SOURCES`).
     progress : callable, optional
         ``progress(step, detail)``.
     map_windows : callable, optional
@@ -118,6 +126,10 @@ def smooth_trial(
         or window_strides < 1
     ):
         problems.append(f"window_strides: expected whole strides >= 1, found {window_strides!r}")
+    if smooth_from not in SMOOTH_SOURCES:
+        problems.append(
+            f"smooth_from: expected one of {list(SMOOTH_SOURCES)}, found {smooth_from!r}"
+        )
     if problems:
         raise ValueError("smooth_trial: " + "; ".join(problems))
     trial = read_trial(path)
@@ -141,8 +153,15 @@ def smooth_trial(
         windows = [(0, rows.size)]
     else:
         windows = stride_windows(trial.time[rows], strikes, window_strides)
-    notes = [f"subject: {subject(trial.metadata)[0]:g} kg, {subject(trial.metadata)[1]:g} m"]
-    jobs = window_jobs(trial, rows, windows, trial.metadata, "stride window")
+    try:
+        source = smoothing_source(smooth_from, trial)
+    except ValueError as error:
+        raise ValueError(f"smooth_trial: {error}") from None
+    notes = [
+        f"subject: {subject(trial.metadata)[0]:g} kg, {subject(trial.metadata)[1]:g} m",
+        f"tracked: the {SOURCE_WORDS[source]}",
+    ]
+    jobs = window_jobs(trial, rows, windows, trial.metadata, "stride window", source)
     begin = time.perf_counter()
     say = progress or (lambda step, detail: None)
     results = smooth_windows(jobs, prefixed(say, "smooth"), map_windows)

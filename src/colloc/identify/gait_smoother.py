@@ -257,6 +257,9 @@ class SmoothedGait:
         ``seconds`` count their solves only).
     process : str
         ``host:pid`` of the process that ran it (which worker, when windows are spread).
+    tracking : dict
+        What the smoother tracked and with which noise levels (the marker smoother's
+        markers, their places in their segments, the plates).
     """
 
     times: np.ndarray
@@ -271,6 +274,7 @@ class SmoothedGait:
     size: dict[str, int] = field(default_factory=dict)
     seconds: float = float("nan")
     process: str = ""
+    tracking: dict[str, Any] = field(default_factory=dict)
 
     def __getstate__(self) -> dict[str, Any]:
         state = dict(self.__dict__)
@@ -482,6 +486,17 @@ class GaitSmoother:
         given; NaN where missing.
     rate_std : ndarray, shape (9,), optional
         Their noise's standard deviations (required with ``rates``).
+    tracked : mapping, optional
+        Further measured outputs: symbol -> ``(expression, values, std)``, the expression in
+        the model's states and inputs, the values at the nodes (NaN where missing) and
+        their noise's standard deviation (e.g. markers and plates,
+        :func:`colloc.identify.gait_markers.marker_smoother`).
+    track_positions : bool
+        Track ``positions`` (default). False: they only make the start (a lab's inverse
+        kinematics, when the markers themselves are tracked).
+    constants : mapping, optional
+        Constants of the plant replacing the dynamics' own (e.g. segment lengths measured
+        from the markers).
     """
 
     def __init__(
@@ -498,6 +513,9 @@ class GaitSmoother:
         grf_std: float = 5.0,
         rates: np.ndarray | None = None,
         rate_std: np.ndarray | None = None,
+        tracked: Mapping[sm.Basic, tuple[sm.Expr, np.ndarray, float]] | None = None,
+        track_positions: bool = True,
+        constants: Mapping[sm.Basic, float] | None = None,
     ) -> None:
         from sympy.physics.mechanics import dynamicsymbols
 
@@ -530,6 +548,16 @@ class GaitSmoother:
         for label, std in (("torque_std", torque_std), ("grf_std", grf_std)):
             if not (np.isfinite(std) and std > 0):
                 problems.append(f"{label}: expected a positive number, found {std!r}")
+        for y, (_, values, std) in (tracked or {}).items():
+            if np.shape(values) != (N,):
+                problems.append(f"tracked {y}: expected shape {(N,)}, found {np.shape(values)}")
+            if not (np.isfinite(std) and std > 0):
+                problems.append(f"tracked {y}: expected a positive std, found {std!r}")
+        if not track_positions and not tracked:
+            problems.append("track_positions: False needs other outputs to track (tracked=)")
+        unknown = [str(c) for c in (constants or {}) if c not in dynamics.constants]
+        if unknown:
+            problems.append(f"constants: not constants of the plant: {', '.join(unknown)}")
         if problems:
             raise ValueError("smoother: " + "; ".join(problems))
         self.dynamics = dynamics
@@ -542,10 +570,13 @@ class GaitSmoother:
             {half + i: w for i, w in enumerate(self.residual_inputs)}
         )
         coordinates = list(model.states[:half])
-        measured: dict[sm.Basic, np.ndarray] = dict(zip(coordinates, self.positions.T, strict=True))
-        weights: dict[sm.Basic, float] = {
-            q: 1.0 / s**2 for q, s in zip(coordinates, arrays["noise_std"][0], strict=True)
-        }
+        measured: dict[sm.Basic, np.ndarray] = {}
+        weights: dict[sm.Basic, float] = {}
+        if track_positions:
+            measured.update(zip(coordinates, self.positions.T, strict=True))
+            weights.update(
+                {q: 1.0 / s**2 for q, s in zip(coordinates, arrays["noise_std"][0], strict=True)}
+            )
         if rates is not None and not problems:
             speeds = list(model.states[half:])
             measured.update(zip(speeds, arrays["rates"][0].T, strict=True))
@@ -572,8 +603,13 @@ class GaitSmoother:
                 )
                 measured[y] = values
                 weights[y] = 1.0 / grf_std**2
+        for y, (expression, values, std) in (tracked or {}).items():
+            outputs[y] = expression
+            measured[y] = np.asarray(values, dtype=float)
+            weights[y] = 1.0 / float(std) ** 2
         self.model = actuated.with_outputs(outputs)
         self._measured, self._weights = measured, weights
+        self._constants = dict(constants or {})
         self._friction = gait.contact_symbols.friction_velocity
         self.model_friction_velocity = float(dynamics.constants[self._friction])
 
@@ -657,7 +693,7 @@ class GaitSmoother:
         from colloc.nlp.objective import Tracking
         from colloc.nlp.problem import Problem
 
-        constants = dict(self.dynamics.constants)
+        constants = {**self.dynamics.constants, **self._constants}
         constants[self._friction] = float(friction_velocity)
         return Problem(
             self.model,

@@ -18,8 +18,10 @@ from colloc.identify.gait_read import (
 )
 from colloc.identify.gait_stage import Fit, FitContext
 from colloc.identify.gait_windows import (
+    SOURCE_WORDS,
     fit_windows,
     prefixed,
+    smoothing_source,
     window_facts,
     window_jobs,
 )
@@ -37,9 +39,14 @@ def smoother_fit(c: FitContext) -> Fit:
     settings, data, gs = c.settings, c.data, c.gs
     meta = data.trial.metadata
     windows = fit_windows(settings, c.t, data.trial.right_heel_strikes)
-    jobs = window_jobs(data.fit, data.rows, windows, meta, "stride window")
+    source = smoothing_source(settings.smooth_from, data.trial)
+    jobs = window_jobs(data.fit, data.rows, windows, meta, "stride window", source)
     where = "" if c.map_windows is None else " on the workers"
-    c.say("smooth", f"{len(jobs)} window(s){where}: backward Euler, midpoint, continuation")
+    c.say(
+        "smooth",
+        f"{len(jobs)} window(s){where} tracking the {SOURCE_WORDS[source]}: backward Euler, "
+        "midpoint, continuation",
+    )
     results = smooth_windows(jobs, prefixed(c.say, "smooth"), c.map_windows)
     c.lap("smooth")
 

@@ -29,6 +29,7 @@ from colloc.identify.gait_windows import (
     WindowMap,
     fit_windows,
     prefixed,
+    smoothing_source,
     window_jobs,
 )
 from colloc.identify.validation import variance_accounted_for
@@ -111,7 +112,8 @@ def _smoothed_held_out(
     part = data.held_out
     rows = np.arange(part.time.size)
     windows = fit_windows(settings, part.time, part.right_heel_strikes)
-    jobs = window_jobs(part, rows, windows, data.trial.metadata, "held-out window")
+    source = smoothing_source(settings.smooth_from, data.trial)
+    jobs = window_jobs(part, rows, windows, data.trial.metadata, "held-out window", source)
     results = smooth_windows(jobs, prefixed(say, "validate"), map_windows)
     pieces = [result.at_dynamics() for result in results]
     at_t, at_states = (np.concatenate([p[i] for p in pieces]) for i in (0, 1))

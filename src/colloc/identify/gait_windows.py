@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import functools
 from collections.abc import Callable
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
@@ -61,7 +61,12 @@ class WindowJob:
         How progress reports name it (``"stride window 2/5, "``).
     body_mass, height : float
         The subject, for the model's segment parameters.
-    settings : SmootherSettings
+    settings : SmootherSettings or None
+        None: the source's own defaults (:data:`SMOOTHERS`).
+    source : str
+        What the smoother tracks: ``markers`` (the lab's raw markers and plates,
+        :func:`colloc.identify.gait_markers.marker_smoother`) or ``angles`` (the trial's
+        angles, trunk and torques, :meth:`GaitSmoother.from_trial`).
     """
 
     trial: Any
@@ -69,7 +74,57 @@ class WindowJob:
     label: str
     body_mass: float
     height: float
-    settings: SmootherSettings = field(default_factory=SmootherSettings)
+    settings: SmootherSettings | None = None
+    source: str = "angles"
+
+
+def _angle_smoother(
+    dynamics: Any, trial: Any, rows: np.ndarray, settings: SmootherSettings | None
+) -> tuple[GaitSmoother, dict[str, Any]]:
+    return GaitSmoother.from_trial(dynamics, trial, rows, settings), {"tracked": "angles"}
+
+
+def _marker_smoother(
+    dynamics: Any, trial: Any, rows: np.ndarray, settings: SmootherSettings | None
+) -> tuple[GaitSmoother, dict[str, Any]]:
+    from colloc.identify.gait_markers import marker_smoother
+
+    return marker_smoother(dynamics, trial, rows, settings)
+
+
+#: The smoother each source makes.
+SMOOTHERS: dict[str, Callable[..., tuple[GaitSmoother, dict[str, Any]]]] = {
+    "angles": _angle_smoother,
+    "markers": _marker_smoother,
+}
+
+
+#: How messages name what each source tracks.
+SOURCE_WORDS: dict[str, str] = {
+    "angles": "trial's angles, trunk pose and torques",
+    "markers": "lab's raw markers and plates",
+}
+
+
+def smoothing_source(requested: str, trial: Any) -> str:
+    """The source a run smooths from: ``requested``, or for ``auto`` the lab's markers when
+    the trial carries them, else its angles.
+
+    Raises
+    ------
+    ValueError
+        When ``markers`` is asked of a trial without them.
+    """
+    from colloc.identify.gait_markers import has_markers
+
+    if requested == "auto":
+        return "markers" if has_markers(trial) else "angles"
+    if requested == "markers" and not has_markers(trial):
+        raise ValueError(
+            "smooth_from: 'markers' needs a lab trial with its raw markers (markers.csv, as "
+            "colloc gait trial-from-lab writes it); this trial has none (--smooth-from angles)"
+        )
+    return requested
 
 
 def smooth_window(job: WindowJob, progress: Progress | None = None) -> SmoothedGait:
@@ -91,13 +146,19 @@ def smooth_window(job: WindowJob, progress: Progress | None = None) -> SmoothedG
         When a stage of the window's smoother does not converge.
     """
     dynamics = gait_dynamics(job.body_mass, job.height)
-    smoother = GaitSmoother.from_trial(dynamics, job.trial, job.rows, job.settings)
+    smoother, facts = SMOOTHERS[job.source](dynamics, job.trial, job.rows, job.settings)
 
     def report(stage: str, detail: str) -> None:
         if progress is not None:
             progress(stage, f"{job.label}{detail}")
 
-    return smoother.run(progress=report)
+    result = smoother.run(progress=report)
+    if job.source == "markers":
+        from colloc.identify.gait_markers import tracking_fit
+
+        facts = {**facts, "fit": tracking_fit(result.problem, result.z)}
+    result.tracking = facts
+    return result
 
 
 def smooth_windows(
@@ -130,8 +191,10 @@ def smooth_windows(
 
 
 def window_facts(result: Any) -> dict[str, Any]:
-    """What one smoothed window cost and where it ran (the summary's ``windows``)."""
+    """What one smoothed window cost, where it ran and what it tracked (the summary's
+    ``windows``)."""
     return {
+        "tracking": getattr(result, "tracking", {}),
         "start": float(result.times[0]),
         "stop": float(result.times[-1]),
         "nodes": int(result.times.size),
@@ -156,9 +219,10 @@ def window_jobs(
     windows: list[tuple[int, int]],
     meta: dict[str, Any],
     name: str,
+    source: str = "angles",
 ) -> list[Any]:
     """One smoothing job per window of ``part``'s samples ``rows`` (each its own samples
-    alone: what travels to a worker)."""
+    alone: what travels to a worker), each smoothing from ``source`` (:data:`SMOOTHERS`)."""
     body = subject(meta)
     return [
         WindowJob(
@@ -166,6 +230,7 @@ def window_jobs(
             np.arange(stop - first),
             "" if len(windows) == 1 else f"{name} {k + 1}/{len(windows)}, ",
             *body,
+            source=source,
         )
         for k, (first, stop) in enumerate(windows)
     ]

@@ -1,0 +1,137 @@
+"""Benchmark the smoother that tracks a lab's raw markers and plates
+(:func:`colloc.identify.gait_markers.marker_smoother`): per second of record, the wall time
+split into set-up (model and data), build (the collocation problems) and solve (IPOPT, every
+stage), the IPOPT iterations and the peak memory; with ``--truth`` (the simulated trial the
+lab export was made from) the smoothed angles and torques against it, beside the lab's 6 Hz
+inverse kinematics and dynamics.
+
+    colloc gait simulate --duration 130 --motor-noise 3 --lab-export --out SIM
+    colloc gait trial-from-lab SIM/lab-export.tsv --mass 75 --height 1.8 \
+        --belt-speed LeftBeltSpeed --out LAB
+    python benchmarks/gait_marker_smoother.py --trial LAB --truth SIM/trial \
+        --duration 30 60 120 [--no-plates] [--repeat 3]
+
+Each case runs in a fresh process (the peak RSS is its own) and appends one JSON record to
+``benchmarks/results/gait_marker_smoother.json``. Quote medians over ``--repeat``: the
+machine is shared.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+from results_file import append_record, peak_rss_mb
+
+RESULTS = Path(__file__).parent / "results" / "gait_marker_smoother.json"
+
+
+def one_case(
+    trial_dir: Path, truth_dir: Path | None, start: float, duration: float, plates: bool
+) -> dict:
+    import numpy as np
+
+    from colloc.data.columns import JOINT_ANGLE_COLUMNS, TORQUE_COLUMNS
+    from colloc.data.trial import read_trial
+    from colloc.gait.orbit import GaitDynamics
+    from colloc.identify.gait_markers import marker_smoother, tracking_fit
+    from colloc.models.gait2d_params import load_parameters
+
+    clock = time.perf_counter()
+    trial = read_trial(trial_dir)
+    meta = trial.metadata
+    t = trial.time - trial.time[0]
+    rows = np.flatnonzero((t >= start - 1e-9) & (t <= start + duration + 1e-9))
+    dynamics = GaitDynamics.build(load_parameters(float(meta["body_mass"]), float(meta["height"])))
+    smoother, facts = marker_smoother(dynamics, trial, rows, use_plates=plates)
+    setup = time.perf_counter() - clock
+    result = smoother.run()
+    solve = sum(s.seconds for s in result.stages)
+    record = {
+        "trial": str(trial_dir),
+        "start": start,
+        "duration": float(trial.time[rows[-1]] - trial.time[rows[0]]),
+        "plates": plates,
+        "setup_seconds": setup,
+        "build_seconds": result.seconds - solve,
+        "solve_seconds": solve,
+        "seconds_per_record_second": (setup + result.seconds) / duration,
+        "iterations": int(sum(s.iterations for s in result.stages)),
+        "stages": [s.describe() for s in result.stages],
+        "success": bool(result.stages[-1].success),
+        "size": result.size,
+        "peak_rss_mb": peak_rss_mb(),
+        "fit": tracking_fit(result.problem, result.z),
+        "noise": facts["noise"],
+    }
+    if truth_dir is not None:
+        truth = read_trial(truth_dir)
+
+        def at_nodes(columns: list[str]) -> np.ndarray:
+            return np.column_stack(
+                [np.interp(result.times, truth.time, truth.signals[c]) for c in columns]
+            )
+
+        true_angles = at_nodes(list(JOINT_ANGLE_COLUMNS))
+        true_torques = at_nodes(list(TORQUE_COLUMNS))
+        lab = trial.signals.iloc[rows]
+
+        def rms(a: np.ndarray, b: np.ndarray) -> list[float]:
+            return np.sqrt(np.mean((a - b) ** 2, axis=0)).tolist()
+
+        record["angle_rms_deg"] = {
+            "marker_smoother": np.degrees(rms(result.states[:, 3:9], true_angles)).tolist(),
+            "inverse_kinematics_6hz": np.degrees(
+                rms(lab[list(JOINT_ANGLE_COLUMNS)].to_numpy(), true_angles)
+            ).tolist(),
+        }
+        record["torque_rms_nm"] = {
+            "marker_smoother": rms(result.torques, true_torques),
+            "inverse_dynamics_6hz": rms(lab[list(TORQUE_COLUMNS)].to_numpy(), true_torques),
+        }
+        record["truth_note"] = (
+            "the truth trial's angles carry its own measurement noise (0.25 deg) and its "
+            "torques 1 N m: read the errors as an upper bound"
+            if truth.metadata.get("noise")
+            else "noise-free truth"
+        )
+    return record
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--trial", type=Path, required=True, help="a lab trial (trial-from-lab)")
+    parser.add_argument("--truth", type=Path, help="the simulated trial it was recorded from")
+    parser.add_argument("--start", type=float, default=0.0)
+    parser.add_argument("--duration", type=float, nargs="+", default=[30.0])
+    parser.add_argument("--repeat", type=int, default=1)
+    parser.add_argument("--no-plates", action="store_true", help="track the markers alone")
+    parser.add_argument("--one", action="store_true", help=argparse.SUPPRESS)
+    args = parser.parse_args()
+    if args.one:
+        record = one_case(args.trial, args.truth, args.start, args.duration[0], not args.no_plates)
+        print(json.dumps(record))
+        return
+    for duration in args.duration:
+        for _ in range(args.repeat):
+            command = [sys.executable, __file__, "--one", "--trial", str(args.trial)]
+            command += ["--start", str(args.start), "--duration", str(duration)]
+            if args.truth:
+                command += ["--truth", str(args.truth)]
+            if args.no_plates:
+                command.append("--no-plates")
+            out = subprocess.run(command, capture_output=True, text=True, check=True)
+            record = json.loads(out.stdout.strip().splitlines()[-1])
+            append_record(RESULTS, record)
+            print(
+                f"{duration:5.0f} s: {record['seconds_per_record_second']:.2f} s per second of "
+                f"record, {record['iterations']} iterations, {record['peak_rss_mb']:.0f} MB"
+            )
+
+
+if __name__ == "__main__":
+    main()

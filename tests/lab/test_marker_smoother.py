@@ -1,0 +1,104 @@
+"""The smoother that tracks a lab's raw markers and plates, against the simulated walk they
+were recorded from (its true angles and torques)."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+
+from colloc.cli import main
+from colloc.data.columns import JOINT_ANGLE_COLUMNS, TORQUE_COLUMNS
+from colloc.gait.orbit import GaitDynamics
+from colloc.identify.gait_markers import marker_smoother, tracking_fit
+from colloc.lab import LabSettings, lab_export_from_record, process_lab
+from colloc.models.gait2d_params import load_parameters
+
+SUBJECT = (75.0, 1.8)  # the session walk's (tests/lab/conftest.py)
+
+
+@pytest.fixture(scope="module")
+def lab_trial(walk):
+    export = lab_export_from_record(walk, load_parameters(*SUBJECT), seed=3)  # 1 mm, 2 N, 1 N m
+    return process_lab(export, LabSettings(*SUBJECT, belt_speed="RightBeltSpeed")).trial
+
+
+@pytest.fixture(scope="module")
+def smoothed(lab_trial):
+    smoother, facts = marker_smoother(
+        GaitDynamics.build(load_parameters(*SUBJECT)), lab_trial, np.arange(lab_trial.time.size)
+    )
+    result = smoother.run()
+    return result, facts, tracking_fit(result.problem, result.z)
+
+
+def _rms(x):
+    return np.sqrt(np.mean(x**2, axis=0))
+
+
+def test_the_marker_smoother_comes_closer_to_the_walk_than_inverse_kinematics(
+    walk, lab_trial, smoothed
+):
+    result, facts, fit = smoothed
+    assert result.stages[-1].success and result.stages[-1].friction_velocity == 0.01
+    truth = walk.states[:, 3:9]
+    ik = lab_trial.signals[list(JOINT_ANGLE_COLUMNS)].to_numpy()
+    ours = np.degrees(_rms(result.states[:, 3:9] - truth))
+    theirs = np.degrees(_rms(ik - truth))
+    # measured: 0.09-0.21 deg against the 6 Hz inverse kinematics' 0.18-0.74 deg
+    assert np.all(ours < theirs) and ours.max() < 0.3
+    # torques within a few N m of the truth (measured 5-8 N m RMS; the walk's own reach 100)
+    assert _rms(result.torques - walk.torques).max() < 10.0
+    # the markers are followed to their noise (1 mm drawn), the plates to theirs (2 N, 1 N m)
+    assert fit["marker_rms_mm"] == pytest.approx(1.0, rel=0.3)
+    assert fit["plate_force_rms_n"] < 3.0 and fit["plate_moment_rms_nm"] < 2.0
+    assert facts["tracked"] == "markers and plates"
+    assert facts["noise"]["marker_m"] == pytest.approx(1e-3, rel=0.1)
+    # the landmarks sit on their joints: the knee marker at the thigh's measured length
+    knee = facts["markers"]["RLEK"]
+    assert knee["segment"] == "right_thigh"
+    assert knee["in_segment_m"][0] == pytest.approx(0.0, abs=2e-3)
+    assert knee["in_segment_m"][1] == pytest.approx(-facts["segment_lengths_m"]["thigh"], abs=2e-3)
+
+
+def test_gait_smooth_tracks_a_lab_trials_markers_by_default(lab_trial, tmp_path, capsys):
+    folder = lab_trial.write(tmp_path / "lab")
+    out = tmp_path / "smoothed"
+    code = main(["gait", "smooth", str(folder), "--out", str(out), "--duration", "2", "--no-plots"])
+    assert code == 0
+    summary = json.loads((out / "smooth.json").read_text())
+    assert "tracked: the lab's raw markers and plates" in summary["notes"]
+    tracking = summary["windows"][0]["tracking"]
+    assert tracking["tracked"] == "markers and plates"
+    assert set(tracking["fit"]) == {
+        "marker_rms_mm", "plate_force_rms_n", "plate_moment_rms_nm", "torque_from_prior_rms_nm",
+    }  # fmt: skip
+
+
+def test_markers_asked_of_a_trial_without_them_is_refused(lab_trial, tmp_path, capsys):
+    trial = lab_trial
+    plain = type(trial)(
+        trial.time, trial.signals, trial.right_heel_strikes, trial.left_heel_strikes,
+        trial.metadata,
+    )  # fmt: skip
+    folder = plain.write(tmp_path / "plain")
+    code = main(
+        ["gait", "smooth", str(folder), "--out", str(tmp_path / "o"), "--smooth-from", "markers"]
+    )
+    assert code == 2
+    assert "this trial has none (--smooth-from angles)" in capsys.readouterr().err
+    assert not (tmp_path / "o" / "smooth.json").exists()
+
+
+def test_the_torques_prior_needs_the_inverse_dynamics(lab_trial):
+    trial = type(lab_trial)(
+        lab_trial.time,
+        lab_trial.signals.drop(columns=list(TORQUE_COLUMNS)),
+        lab_trial.right_heel_strikes,
+        lab_trial.left_heel_strikes,
+        lab_trial.metadata,
+        lab_trial.tables,
+    )
+    with pytest.raises(ValueError, match="found no right_hip_torque"):
+        marker_smoother(GaitDynamics.build(), trial, np.arange(10))
