@@ -177,7 +177,7 @@ class _Scripted(GaitSmoother):
         self.visited = []
         return np.zeros((self.times.size, 27))
 
-    def _attempt(self, problem, z, name, v_s, max_iter=None):
+    def _attempt(self, problem, z, name, v_s, max_iter=None, ceiling_factor=None):
         v = round(v_s, 6)
         self.visited.append(v)
         self.limits.append((name, max_iter))

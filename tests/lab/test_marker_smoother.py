@@ -65,12 +65,18 @@ def test_the_marker_smoother_comes_closer_to_the_walk_than_inverse_kinematics(
 def test_gait_smooth_tracks_a_lab_trials_markers_by_default(lab_trial, tmp_path, capsys):
     folder = lab_trial.write(tmp_path / "lab")
     out = tmp_path / "smoothed"
-    code = main(["gait", "smooth", str(folder), "--out", str(out), "--duration", "2", "--no-plots"])
+    code = main(
+        ["gait", "smooth", str(folder), "--out", str(out), "--duration", "2", "--no-plots"]
+        + ["--noise-levels", "marker=0.002"]
+    )
     assert code == 0
     summary = json.loads((out / "smooth.json").read_text())
     assert "tracked: the lab's raw markers and plates" in summary["notes"]
     tracking = summary["windows"][0]["tracking"]
     assert tracking["tracked"] == "markers and plates"
+    assert tracking["noise"]["marker_m"] == 0.002  # given, not the record's 1 mm
+    assert "marker given" in tracking["noise"]["source"]
+    assert "force estimated from the record" in tracking["noise"]["source"]
     assert set(tracking["fit"]) == {
         "marker_rms_mm", "plate_force_rms_n", "plate_moment_rms_nm", "torque_from_prior_rms_nm",
     }  # fmt: skip
@@ -102,3 +108,19 @@ def test_the_torques_prior_needs_the_inverse_dynamics(lab_trial):
     )
     with pytest.raises(ValueError, match="found no right_hip_torque"):
         marker_smoother(GaitDynamics.build(), trial, np.arange(10))
+
+
+def test_bad_noise_levels_are_named_before_any_work(tmp_path, capsys):
+    with pytest.raises(SystemExit):
+        main(
+            [
+                "gait",
+                "identify",
+                str(tmp_path),
+                "--noise-levels",
+                "marker=-1,skin=2,force=1,force=2",
+            ]
+        )
+    err = capsys.readouterr().err
+    assert "marker: expected a standard deviation > 0, found '-1'" in err
+    assert "unknown name 'skin'" in err and "force given twice" in err

@@ -80,6 +80,38 @@ def lags_arg(text: str) -> tuple[int, ...]:
     return lags
 
 
+#: ``--noise-levels`` names (colloc.identify.gait_settings.NOISE_LEVEL_NAMES, repeated here so
+#: that parsing imports nothing heavy) and their units.
+NOISE_LEVEL_UNITS = {"marker": "m", "force": "N", "moment": "N m", "torque_prior": "N m"}
+
+
+def noise_levels_arg(text: str) -> tuple[tuple[str, float], ...]:
+    """``marker=0.001,force=2`` -> (("marker", 0.001), ("force", 2.0)): each a known name and
+    a positive standard deviation, no name twice."""
+    pairs, problems = [], []
+    for item in (part.strip() for part in text.split(",")):
+        name, sep, value = item.partition("=")
+        name = name.strip()
+        try:
+            number_value = float(value) if sep else float("nan")
+        except ValueError:
+            number_value = float("nan")
+        if name not in NOISE_LEVEL_UNITS:
+            problems.append(f"unknown name {name!r}")
+        elif not 0 < number_value < float("inf"):
+            problems.append(f"{name}: expected a standard deviation > 0, found {value!r}")
+        else:
+            pairs.append((name, number_value))
+    names = [n for n, _ in pairs]
+    problems += [f"{n} given twice" for n in sorted({n for n in names if names.count(n) > 1})]
+    if problems:
+        units = ", ".join(f"{n} [{u}]" for n, u in NOISE_LEVEL_UNITS.items())
+        raise argparse.ArgumentTypeError(
+            f"expected NAME=VALUE pairs separated by commas ({units}); " + "; ".join(problems)
+        )
+    return tuple(pairs)
+
+
 def path_arg(text: str) -> Path:
     """A path argument: empty text is refused (``Path("")`` would silently be the working
     folder)."""

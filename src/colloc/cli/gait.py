@@ -12,6 +12,7 @@ from colloc.cli.common import (
     ALLOW_OTHER_TABLES_HELP,
     lags_arg,
     memory_bytes,
+    noise_levels_arg,
     number,
     open_store,
     output_problems,
@@ -247,6 +248,16 @@ def _identify_parser(gs: Any, default_url: str) -> None:
         "(default %(default)s)",
     )
     idp.add_argument(
+        "--noise-levels",
+        type=noise_levels_arg,
+        default=(),
+        metavar="NAME=VALUE,...",
+        help="the marker smoother's noise levels instead of those the trial estimated: NAME=VALUE "
+        "pairs separated by commas, from marker [m], force [N], moment [N m] (each plate "
+        "sample) and torque_prior [N m] (the torques' prior about the inverse dynamics, "
+        "default 20)",
+    )
+    idp.add_argument(
         "--window-strides",
         type=positive_int,
         default=d.window_strides,
@@ -331,6 +342,7 @@ def gait_identify_checks(
         window_strides=args.window_strides,
         truth=args.truth,
         smooth_from=args.smooth_from,
+        noise_levels=args.noise_levels,
     )
     outputs = output_problems(args.json, None if args.no_plots else args.out)
     spread = []

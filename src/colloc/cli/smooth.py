@@ -9,6 +9,7 @@ from pathlib import Path
 from typing import Any
 
 from colloc.cli.common import (
+    noise_levels_arg,
     number,
     output_problems,
     path_arg,
@@ -57,6 +58,16 @@ def add_parser(gs: Any) -> None:
         "has them (default %(default)s)",
     )
     sp.add_argument(
+        "--noise-levels",
+        type=noise_levels_arg,
+        default=(),
+        metavar="NAME=VALUE,...",
+        help="the marker smoother's noise levels instead of those the trial estimated: NAME=VALUE "
+        "pairs separated by commas, from marker [m], force [N], moment [N m] (each plate "
+        "sample) and torque_prior [N m] (the torques' prior about the inverse dynamics, "
+        "default 20)",
+    )
+    sp.add_argument(
         "--overwrite",
         action="store_true",
         help=f"replace {TABLE_FILE} and {SUMMARY_FILE} already in --out",
@@ -99,6 +110,7 @@ def run(args: argparse.Namespace) -> int:
             duration=args.duration,
             window_strides=args.window_strides,
             smooth_from=args.smooth_from,
+            noise_levels=args.noise_levels,
             progress=step_printer(start),
         )
     except (ValueError, FileNotFoundError) as error:

@@ -39,6 +39,8 @@ STRUCTURES = ("full", "joint-isolated")
 #: through its 6 Hz filter, inverse kinematics and dynamics); ``auto``: markers when the
 #: trial has them.
 SMOOTH_SOURCES = ("auto", "markers", "angles")
+#: ``--noise-levels``: what the marker smoother's noise levels may replace.
+NOISE_LEVEL_NAMES = ("marker", "force", "moment", "torque_prior")
 #: Schedule points when neither ``points`` nor the trial's metadata give them.
 DEFAULT_POINTS = 20
 #: The smoother fit's instruments: the fed-back states one and two samples earlier. Measured
@@ -105,6 +107,10 @@ class GaitIdentifySettings:
         ordinary least squares.
     smooth_from : str
         One of :data:`SMOOTH_SOURCES` (method ``smoother``).
+    noise_levels : tuple of (str, float)
+        Smoothing from markers: noise levels replacing the trial's estimates, as
+        ``(name, value)`` pairs with names from :data:`NOISE_LEVEL_NAMES` (``marker`` [m],
+        ``force`` [N], ``moment`` [N m], ``torque_prior`` [N m]); empty: the trial's.
     truth : Path or None
         A trial whose metadata records the controller that made this walk (the simulated
         trial a lab export was written from): its controller is taken as this trial's, for
@@ -141,6 +147,7 @@ class GaitIdentifySettings:
     window_strides: int | None = None
     truth: Path | None = None
     smooth_from: str = "auto"
+    noise_levels: tuple[tuple[str, float], ...] = ()
 
     def problems(self, *, require_trial: bool = True) -> list[str]:
         """Every problem with the settings (empty when valid); the trial is not read.
@@ -223,6 +230,22 @@ class GaitIdentifySettings:
                 f"truth: expected the directory of the simulated trial whose controller made "
                 f"this walk, found {self.truth!r}"
             )
+        levels = self.noise_levels
+        if not (
+            isinstance(levels, tuple)
+            and all(
+                isinstance(pair, tuple)
+                and len(pair) == 2
+                and pair[0] in NOISE_LEVEL_NAMES
+                and _number(pair[1])
+                and 0 < pair[1] < float("inf")
+                for pair in levels
+            )
+        ):
+            out.append(
+                f"noise_levels: expected (name, value > 0) pairs with names from "
+                f"{list(NOISE_LEVEL_NAMES)}, found {levels!r}"
+            )
         noise = self.process_noise
         if noise is not None and self.method != "closed-loop":
             out.append(
@@ -253,6 +276,7 @@ class GaitIdentifySettings:
         out["truth"] = None if self.truth is None else str(self.truth)
         out["track"] = list(self.track)
         out["instrument_lags"] = list(self.instrument_lags)
+        out["noise_levels"] = dict(self.noise_levels)
         if self.process_noise is not None:
             out["process_noise"] = list(self.process_noise)
         return out

@@ -78,6 +78,7 @@ def smooth_trial(
     duration: float | None = None,
     window_strides: int | None = None,
     smooth_from: str = "auto",
+    noise_levels: tuple[tuple[str, float], ...] = (),
     progress: Progress | None = None,
     map_windows: WindowMap | None = None,
 ) -> SmoothedTrial:
@@ -96,6 +97,9 @@ def smooth_trial(
         What the smoother tracks: ``markers`` (a lab trial's raw markers and plates),
         ``angles`` (its angles, trunk pose and torques) or ``auto`` (default: markers when
         the trial has them; :data:`colloc.identify.gait_settings.SMOOTH_SOURCES`).
+    noise_levels : tuple of (str, float)
+        Smoothing from markers: noise levels replacing the trial's estimates
+        (:class:`colloc.identify.gait_markers.MarkerNoise`).
     progress : callable, optional
         ``progress(step, detail)``.
     map_windows : callable, optional
@@ -161,7 +165,9 @@ def smooth_trial(
         f"subject: {subject(trial.metadata)[0]:g} kg, {subject(trial.metadata)[1]:g} m",
         f"tracked: the {SOURCE_WORDS[source]}",
     ]
-    jobs = window_jobs(trial, rows, windows, trial.metadata, "stride window", source)
+    jobs = window_jobs(
+        trial, rows, windows, trial.metadata, "stride window", source, tuple(noise_levels)
+    )
     begin = time.perf_counter()
     say = progress or (lambda step, detail: None)
     results = smooth_windows(jobs, prefixed(say, "smooth"), map_windows)

@@ -40,7 +40,9 @@ def smoother_fit(c: FitContext) -> Fit:
     meta = data.trial.metadata
     windows = fit_windows(settings, c.t, data.trial.right_heel_strikes)
     source = smoothing_source(settings.smooth_from, data.trial)
-    jobs = window_jobs(data.fit, data.rows, windows, meta, "stride window", source)
+    jobs = window_jobs(
+        data.fit, data.rows, windows, meta, "stride window", source, settings.noise_levels
+    )
     where = "" if c.map_windows is None else " on the workers"
     c.say(
         "smooth",
@@ -74,7 +76,9 @@ def smoother_fit(c: FitContext) -> Fit:
     columns = [index[n] for n in data.feedback]
     feedback, instrument_feedback = mid_states[:, columns], lag_states[:, columns]
     strides = np.searchsorted(data.trial.right_heel_strikes, mid_t)
-    combined = torque_equation_noise(meta)
+    # smoothed from markers, the torques are the smoother's, whose error (several N m) is no
+    # measurement noise the trial records: the bound takes the residual's level
+    combined = None if source == "markers" else torque_equation_noise(meta)
     noise = None if combined is None else np.full(6, combined)
     c.say(
         "controller",
@@ -101,7 +105,13 @@ def smoother_fit(c: FitContext) -> Fit:
         + (
             f"{float(noise[0]):.3g} N m (measurement and motor noise recorded in the trial)"
             if noise is not None
-            else "the residual's (no motor noise recorded)"
+            else "the residual's ("
+            + (
+                "the torques are the marker smoother's, not measured"
+                if source == "markers"
+                else "no motor noise recorded"
+            )
+            + ")"
         )
     )
     c.lap("controller")

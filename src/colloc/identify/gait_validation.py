@@ -113,7 +113,9 @@ def _smoothed_held_out(
     rows = np.arange(part.time.size)
     windows = fit_windows(settings, part.time, part.right_heel_strikes)
     source = smoothing_source(settings.smooth_from, data.trial)
-    jobs = window_jobs(part, rows, windows, data.trial.metadata, "held-out window", source)
+    jobs = window_jobs(
+        part, rows, windows, data.trial.metadata, "held-out window", source, settings.noise_levels
+    )
     results = smooth_windows(jobs, prefixed(say, "validate"), map_windows)
     pieces = [result.at_dynamics() for result in results]
     at_t, at_states = (np.concatenate([p[i] for p in pieces]) for i in (0, 1))

@@ -67,6 +67,9 @@ class WindowJob:
         What the smoother tracks: ``markers`` (the lab's raw markers and plates,
         :func:`colloc.identify.gait_markers.marker_smoother`) or ``angles`` (the trial's
         angles, trunk and torques, :meth:`GaitSmoother.from_trial`).
+    noise : tuple of (str, float)
+        Source ``markers``: noise levels replacing the trial's estimates (``marker``,
+        ``force``, ``moment``, ``torque_prior``; :class:`colloc.identify.gait_markers.MarkerNoise`).
     """
 
     trial: Any
@@ -76,20 +79,18 @@ class WindowJob:
     height: float
     settings: SmootherSettings | None = None
     source: str = "angles"
+    noise: tuple[tuple[str, float], ...] = ()
 
 
-def _angle_smoother(
-    dynamics: Any, trial: Any, rows: np.ndarray, settings: SmootherSettings | None
-) -> tuple[GaitSmoother, dict[str, Any]]:
-    return GaitSmoother.from_trial(dynamics, trial, rows, settings), {"tracked": "angles"}
+def _angle_smoother(dynamics: Any, job: WindowJob) -> tuple[GaitSmoother, dict[str, Any]]:
+    smoother = GaitSmoother.from_trial(dynamics, job.trial, job.rows, job.settings)
+    return smoother, {"tracked": "angles"}
 
 
-def _marker_smoother(
-    dynamics: Any, trial: Any, rows: np.ndarray, settings: SmootherSettings | None
-) -> tuple[GaitSmoother, dict[str, Any]]:
+def _marker_smoother(dynamics: Any, job: WindowJob) -> tuple[GaitSmoother, dict[str, Any]]:
     from colloc.identify.gait_markers import marker_smoother
 
-    return marker_smoother(dynamics, trial, rows, settings)
+    return marker_smoother(dynamics, job.trial, job.rows, job.settings, noise=dict(job.noise))
 
 
 #: The smoother each source makes.
@@ -146,7 +147,7 @@ def smooth_window(job: WindowJob, progress: Progress | None = None) -> SmoothedG
         When a stage of the window's smoother does not converge.
     """
     dynamics = gait_dynamics(job.body_mass, job.height)
-    smoother, facts = SMOOTHERS[job.source](dynamics, job.trial, job.rows, job.settings)
+    smoother, facts = SMOOTHERS[job.source](dynamics, job)
 
     def report(stage: str, detail: str) -> None:
         if progress is not None:
@@ -220,9 +221,11 @@ def window_jobs(
     meta: dict[str, Any],
     name: str,
     source: str = "angles",
+    noise: tuple[tuple[str, float], ...] = (),
 ) -> list[Any]:
     """One smoothing job per window of ``part``'s samples ``rows`` (each its own samples
-    alone: what travels to a worker), each smoothing from ``source`` (:data:`SMOOTHERS`)."""
+    alone: what travels to a worker), each smoothing from ``source`` (:data:`SMOOTHERS`)
+    with the noise levels ``noise`` (source ``markers``)."""
     body = subject(meta)
     return [
         WindowJob(
@@ -231,6 +234,7 @@ def window_jobs(
             "" if len(windows) == 1 else f"{name} {k + 1}/{len(windows)}, ",
             *body,
             source=source,
+            noise=tuple(noise),
         )
         for k, (first, stop) in enumerate(windows)
     ]
