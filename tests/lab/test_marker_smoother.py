@@ -42,6 +42,8 @@ def test_the_marker_smoother_comes_closer_to_the_walk_than_inverse_kinematics(
 ):
     result, facts, fit = smoothed
     assert result.stages[-1].success and result.stages[-1].friction_velocity == 0.01
+    # the plates at a hundredth of their weight until the contact is the model's, then whole
+    assert [s.name for s in result.stages][-2:] == ["continuation", "full weights"]
     truth = walk.states[:, 3:9]
     ik = lab_trial.signals[list(JOINT_ANGLE_COLUMNS)].to_numpy()
     ours = np.degrees(_rms(result.states[:, 3:9] - truth))
@@ -124,3 +126,19 @@ def test_bad_noise_levels_are_named_before_any_work(tmp_path, capsys):
     err = capsys.readouterr().err
     assert "marker: expected a standard deviation > 0, found '-1'" in err
     assert "unknown name 'skin'" in err and "force given twice" in err
+
+
+def test_early_weights_must_be_factors_of_tracked_outputs(lab_trial):
+    from sympy.physics.mechanics import dynamicsymbols
+
+    from colloc.identify.gait_smoother import GaitSmoother
+
+    smoother, _ = marker_smoother(GaitDynamics.build(), lab_trial, np.arange(20))
+    y = dynamicsymbols("plate_right_force_x")
+    tracked = {y: (smoother.model.outputs[y], smoother._measured[y], 2.0)}
+    for bad in ({y: 0.0}, {y: 2.0}, {dynamicsymbols("other"): 0.5}):
+        with pytest.raises(ValueError, match="early_weights: expected a factor in \\(0, 1\\]"):
+            GaitSmoother(
+                smoother.dynamics, smoother.times, smoother.positions, smoother.belt_speed,
+                np.ones(9), tracked=tracked, track_positions=False, early_weights=bad,
+            )  # fmt: skip

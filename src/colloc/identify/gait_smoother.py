@@ -502,6 +502,11 @@ class GaitSmoother:
     constants : mapping, optional
         Constants of the plant replacing the dynamics' own (e.g. segment lengths measured
         from the markers).
+    early_weights : mapping, optional
+        Tracked symbol -> factor (< 1) on its weight in every stage but the last: the last
+        stage (``full weights``, at the model's own contact) then tracks it at its full
+        weight. Measurements the smoothed contact cannot match (a plate's forces at
+        ``v_s = 0.1`` m/s) so guide the early stages without pulling them apart.
     """
 
     def __init__(
@@ -521,6 +526,7 @@ class GaitSmoother:
         tracked: Mapping[sm.Basic, tuple[sm.Expr, np.ndarray, float]] | None = None,
         track_positions: bool = True,
         constants: Mapping[sm.Basic, float] | None = None,
+        early_weights: Mapping[sm.Basic, float] | None = None,
     ) -> None:
         from sympy.physics.mechanics import dynamicsymbols
 
@@ -563,6 +569,12 @@ class GaitSmoother:
         unknown = [str(c) for c in (constants or {}) if c not in dynamics.constants]
         if unknown:
             problems.append(f"constants: not constants of the plant: {', '.join(unknown)}")
+        for y, factor in (early_weights or {}).items():
+            if y not in (tracked or {}) or not 0 < factor <= 1:
+                problems.append(
+                    f"early_weights: expected a factor in (0, 1] of a tracked output, found "
+                    f"{y}: {factor!r}"
+                )
         if problems:
             raise ValueError("smoother: " + "; ".join(problems))
         self.dynamics = dynamics
@@ -615,6 +627,7 @@ class GaitSmoother:
         self.model = actuated.with_outputs(outputs)
         self._measured, self._weights = measured, weights
         self._constants = dict(constants or {})
+        self._early = dict(early_weights or {})
         self._friction = gait.contact_symbols.friction_velocity
         self.model_friction_velocity = float(dynamics.constants[self._friction])
 
@@ -694,8 +707,8 @@ class GaitSmoother:
         )
 
     def problem(self, scheme: Any, friction_velocity: float) -> Any:
-        """The smoother's collocation problem with ``scheme`` at a contact slip scale."""
-        from colloc.nlp.objective import Tracking
+        """The smoother's collocation problem with ``scheme`` at a contact slip scale (the
+        early stages' weights)."""
         from colloc.nlp.problem import Problem
 
         constants = {**self.dynamics.constants, **self._constants}
@@ -706,9 +719,17 @@ class GaitSmoother:
             scheme=scheme,
             known_trajectories={self.dynamics.gait.belt_speed: self.belt_speed},
             known_parameters=constants,
-            objective=Tracking(self._measured, self._weights),
+            objective=self._tracking(final=False),
             process_noise=dict(zip(self.residual_inputs, self.settings.residual_std, strict=True)),
         )
+
+    def _tracking(self, final: bool) -> Any:
+        """The tracking term: at full weights (``final``) or the early stages'."""
+        from colloc.nlp.objective import Tracking
+
+        factors = {} if final else self._early
+        weights = {y: w * factors.get(y, 1.0) for y, w in self._weights.items()}
+        return Tracking(self._measured, weights)
 
     def start(self, problem: Any) -> np.ndarray:
         """The zero-defect start of ``problem``: filtered positions, the scheme's differences
@@ -811,6 +832,11 @@ class GaitSmoother:
             current = goal
             if planned:
                 halvings = 0
+        if self._early:
+            say("full weights", "every tracked signal at its own weight")
+            midpoint.replace_data(objective=self._tracking(final=True))
+            z = self._solve(midpoint, z, "full weights", current, stages)
+            say("full weights", stages[-1].describe())
         return self._result(midpoint, z, stages, started)
 
     # ------------------------------------------------------------------ helpers
