@@ -112,6 +112,33 @@ def noise_levels_arg(text: str) -> tuple[tuple[str, float], ...]:
     return tuple(pairs)
 
 
+def add_smoothing_options(parser: argparse.ArgumentParser, prefix: str = "") -> None:
+    """``--smooth-from`` and ``--noise-levels``: what the gait smoother tracks and the marker
+    smoother's noise levels (``gait identify`` and ``gait smooth``); ``prefix`` leads each
+    help text (e.g. the method the options belong to)."""
+    from colloc.identify.gait_settings import SMOOTH_SOURCES
+
+    parser.add_argument(
+        "--smooth-from",
+        choices=SMOOTH_SOURCES,
+        default="auto",
+        help=prefix + "what the smoother tracks: 'markers', a lab trial's raw markers and "
+        "plates; 'angles', the trial's angles, trunk pose and torques (a lab's through its 6 Hz "
+        "filter, inverse kinematics and dynamics); 'auto', markers when the trial has them "
+        "(default %(default)s)",
+    )
+    parser.add_argument(
+        "--noise-levels",
+        type=noise_levels_arg,
+        default=(),
+        metavar="NAME=VALUE,...",
+        help=prefix + "the marker smoother's noise levels instead of those the trial "
+        "estimated: NAME=VALUE pairs separated by commas, from marker [m], force [N], moment "
+        "[N m] (each plate sample) and torque_prior [N m] (the torques' prior about the "
+        "inverse dynamics, default 20)",
+    )
+
+
 def path_arg(text: str) -> Path:
     """A path argument: empty text is refused (``Path("")`` would silently be the working
     folder)."""

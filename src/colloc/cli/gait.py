@@ -10,9 +10,9 @@ from typing import Any
 
 from colloc.cli.common import (
     ALLOW_OTHER_TABLES_HELP,
+    add_smoothing_options,
     lags_arg,
     memory_bytes,
-    noise_levels_arg,
     number,
     open_store,
     output_problems,
@@ -238,25 +238,7 @@ def _identify_parser(gs: Any, default_url: str) -> None:
         help="take the true controller (and its P, feedback and phase law) from this trial's "
         "metadata: a lab export of a simulated walk scored like the walk itself",
     )
-    idp.add_argument(
-        "--smooth-from",
-        choices=gi.SMOOTH_SOURCES,
-        default=d.smooth_from,
-        help="method smoother: what the smoother tracks: 'markers', a lab trial's raw markers and "
-        "plates; 'angles', the trial's angles, trunk pose and torques (a lab's through its 6 Hz "
-        "filter, inverse kinematics and dynamics); 'auto', markers when the trial has them "
-        "(default %(default)s)",
-    )
-    idp.add_argument(
-        "--noise-levels",
-        type=noise_levels_arg,
-        default=(),
-        metavar="NAME=VALUE,...",
-        help="the marker smoother's noise levels instead of those the trial estimated: NAME=VALUE "
-        "pairs separated by commas, from marker [m], force [N], moment [N m] (each plate "
-        "sample) and torque_prior [N m] (the torques' prior about the inverse dynamics, "
-        "default 20)",
-    )
+    add_smoothing_options(idp, "method smoother: ")
     idp.add_argument(
         "--window-strides",
         type=positive_int,

@@ -9,7 +9,7 @@ from pathlib import Path
 from typing import Any
 
 from colloc.cli.common import (
-    noise_levels_arg,
+    add_smoothing_options,
     number,
     output_problems,
     path_arg,
@@ -49,24 +49,7 @@ def add_parser(gs: Any) -> None:
         metavar="N",
         help="smooth in windows of N whole strides (memory follows the window; default one)",
     )
-    sp.add_argument(
-        "--smooth-from",
-        choices=("auto", "markers", "angles"),
-        default="auto",
-        help="what the smoother tracks: 'markers', a lab trial's raw markers and plates; "
-        "'angles', the trial's angles, trunk pose and torques; 'auto', markers when the trial "
-        "has them (default %(default)s)",
-    )
-    sp.add_argument(
-        "--noise-levels",
-        type=noise_levels_arg,
-        default=(),
-        metavar="NAME=VALUE,...",
-        help="the marker smoother's noise levels instead of those the trial estimated: NAME=VALUE "
-        "pairs separated by commas, from marker [m], force [N], moment [N m] (each plate "
-        "sample) and torque_prior [N m] (the torques' prior about the inverse dynamics, "
-        "default 20)",
-    )
+    add_smoothing_options(sp)
     sp.add_argument(
         "--overwrite",
         action="store_true",
