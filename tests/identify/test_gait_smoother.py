@@ -165,8 +165,11 @@ class _Scripted(GaitSmoother):
         class Stub:
             known_parameters = {self._friction: friction_velocity}
 
-            def replace_data(inner, known_parameters):
-                inner.known_parameters = dict(known_parameters)
+            def replace_data(inner, known_parameters=None, objective=None):
+                if known_parameters is not None:
+                    inner.known_parameters = dict(known_parameters)
+                if objective is not None:
+                    inner.objective = objective
 
             def initial_guess(inner, nodes):
                 return nodes
@@ -188,6 +191,56 @@ class _Scripted(GaitSmoother):
 
     def _result(self, problem, z, stages, started):
         return stages
+
+
+class _LastStageFails(_Scripted):
+    """Every stage converges but the last, at the tracked signals' full weights."""
+
+    def _attempt(self, problem, z, name, v_s, max_iter=None, ceiling_factor=None):
+        stage, z = super()._attempt(problem, z, name, v_s, max_iter, ceiling_factor)
+        self.weights_seen.append(dict(problem.objective.weights))
+        if name == "full weights":
+            stage = SmootherStage(name, "Midpoint", v_s, "Maximum_Iterations_Exceeded", False,
+                                  300, 0.0, 0.0, 0.0)  # fmt: skip
+            return stage, z + 1.0  # not kept
+        return stage, z
+
+    def _result(self, problem, z, stages, started):
+        class Result:
+            notes: list[str] = []
+
+        out = Result()
+        out.stages, out.z, out.notes = stages, z, []
+        return out
+
+
+def test_a_last_stage_at_full_weights_that_fails_keeps_the_stage_before_with_a_note(
+    window, dynamics
+):
+    from sympy.physics.mechanics import dynamicsymbols
+
+    t, q, v, T = window
+    y = dynamicsymbols("plate_right_force_y")
+    force = dynamics.gait.contact_forces["right_heel"][1]
+    smoother = _LastStageFails(
+        dynamics, t, q, v, STD, T, tracked={y: (force, np.zeros(t.size), 2.0)},
+        early_weights={y: 0.01},
+    )  # fmt: skip
+    smoother.failures, smoother.visited, smoother.limits = {}, [], []
+    smoother.weights_seen = []
+    out = smoother.problem(None, 0.1)
+    out.objective = smoother._tracking(final=False)
+    smoother.problem = lambda scheme, v_s: out  # one stub whose objective the run swaps
+    result = smoother.run()
+    assert [s.name for s in result.stages][-2:] == ["continuation", "full weights"]
+    assert not result.stages[-1].success
+    np.testing.assert_array_equal(result.z, np.zeros((t.size, 27)))  # the stage before's
+    assert (
+        "did not converge" in result.notes[0] and "plate_right_force_y at 0.01" in result.notes[0]
+    )
+    # the early stages saw the plate at a hundredth of its weight, the last at its whole
+    assert smoother.weights_seen[0][y] == pytest.approx(0.01 / 4.0)
+    assert smoother.weights_seen[-1][y] == pytest.approx(1 / 4.0)
 
 
 def _scripted(window, dynamics, failures, **settings):

@@ -40,6 +40,7 @@ import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 import sympy as sm
 
+from colloc.model.symbols import name_of
 from colloc.transcription.base import Scheme
 from colloc.transcription.midpoint import Midpoint
 
@@ -832,12 +833,29 @@ class GaitSmoother:
             current = goal
             if planned:
                 halvings = 0
+        notes = []
         if self._early:
             say("full weights", "every tracked signal at its own weight")
             midpoint.replace_data(objective=self._tracking(final=True))
-            z = self._solve(midpoint, z, "full weights", current, stages)
-            say("full weights", stages[-1].describe())
-        return self._result(midpoint, z, stages, started)
+            stage, z_full = self._attempt(midpoint, z, "full weights", current)
+            stages.append(stage)
+            say("full weights", stage.describe())
+            if stage.success:
+                z = z_full
+            else:  # the early weights' solution, converged at the model's contact, is kept
+                midpoint.replace_data(objective=self._tracking(final=False))
+                factors = sorted({f"{f:g}" for f in self._early.values()})
+                notes.append(
+                    f"smoother: the last stage, every signal at its full weight, did not converge "
+                    f"({stage.describe()}): the result is the stage before it, at the model's "
+                    f"contact with {', '.join(name_of(y) for y in self._early)} at "
+                    f"{' or '.join(factors)} of their weight (their noise taken larger, as the "
+                    "model cannot follow them closer)"
+                )
+        result = self._result(midpoint, z, stages, started)
+        if notes:
+            result.notes.extend(notes)
+        return result
 
     # ------------------------------------------------------------------ helpers
     def windows(self) -> list[tuple[int, int, int, int]]:
@@ -991,7 +1009,6 @@ class GaitSmoother:
         lay = problem.layout
         X = lay.node_matrix(z)
         n = self.dynamics.model.num_states
-        from colloc.model.symbols import name_of
 
         names = [name_of(r) for r in problem.partition.free_inputs]
         inputs = X[:, n : n + len(names)]

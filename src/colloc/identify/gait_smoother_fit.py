@@ -51,6 +51,7 @@ def smoother_fit(c: FitContext) -> Fit:
     )
     results = smooth_windows(jobs, prefixed(c.say, "smooth"), c.map_windows)
     c.lap("smooth")
+    c.notes.extend(dict.fromkeys(note for r in results for note in r.notes))
 
     # Ordinary least squares reads the signals where the scheme holds the dynamics (the
     # midpoints' averages cancel the midpoint rule's odd-even mode); the instrumented fit
