@@ -78,3 +78,26 @@ def test_segment_lengths_are_both_sides_mean():
     found = measured_lengths({"lab": {"segment_lengths_m": lengths}})
     assert found == pytest.approx({"thigh": 0.41, "shank": 0.44})
     assert measured_lengths({}) == {}
+
+
+def test_the_ankle_height_is_the_loaded_malleolus_plus_the_contacts_sinking():
+    from colloc.identify.gait_markers import ankle_height
+
+    t = np.arange(0.0, 1.0, 0.01)
+    weight = 75.0 * 9.81
+    markers = pd.DataFrame(
+        {
+            "time": t,
+            "RLM_x": 0 * t, "RLM_y": np.full(t.size, 0.05),  # the malleolus, lowest
+            "RKNEE_x": 0 * t, "RKNEE_y": np.full(t.size, 0.45),
+            "LLM_x": 0 * t, "LLM_y": np.full(t.size, 0.30),  # the left foot in the air
+        }
+    )  # fmt: skip
+    plates = pd.DataFrame({"time": t, **{c: np.zeros(t.size) for c in PLATE_COLUMNS}})
+    plates["right_force_y"] = np.where(t < 0.5, weight, 0.5 * weight)  # loaded half the time
+    segments = {"RLM": "right_shank", "RKNEE": "right_shank", "LLM": "left_shank"}
+    k = 5e7
+    found = ankle_height(markers, plates, segments, 75.0, k)
+    assert found == pytest.approx(0.05 + (weight / (2 * k)) ** (1 / 3), rel=1e-9)
+    plates["right_force_y"] = 0.5 * weight  # never loaded above 80 % of the weight
+    assert ankle_height(markers, plates, segments, 75.0, k) is None

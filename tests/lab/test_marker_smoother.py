@@ -62,6 +62,8 @@ def test_the_marker_smoother_comes_closer_to_the_walk_than_inverse_kinematics(
     assert knee["segment"] == "right_thigh"
     assert knee["in_segment_m"][0] == pytest.approx(0.0, abs=2e-3)
     assert knee["in_segment_m"][1] == pytest.approx(-facts["segment_lengths_m"]["thigh"], abs=2e-3)
+    # the ankle's height above the sole from the loaded feet: the walk's model had 0.0703 m
+    assert facts["segment_lengths_m"]["ankle_height"] == pytest.approx(0.0703, abs=2e-3)
 
 
 def test_gait_smooth_tracks_a_lab_trials_markers_by_default(lab_trial, tmp_path, capsys):
