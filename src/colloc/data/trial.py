@@ -279,7 +279,8 @@ def replace_refusal(directory: str | os.PathLike[str]) -> str | None:
         more = f" and {len(foreign) - 5} more" if len(foreign) > 5 else ""
         return (
             f"{str(target)!r} holds {shown}{more}, which is not part of a trial; only a "
-            "folder holding a trial's files alone (trial.csv, events.csv, metadata.yaml) is "
+            "folder holding a trial's files alone (trial.csv, events.csv, metadata.yaml, and a "
+            "lab trial's markers.csv and plates.csv) is "
             "replaced: choose a new folder or move those out"
         )
     return None
