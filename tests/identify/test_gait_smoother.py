@@ -241,6 +241,8 @@ def test_a_last_stage_at_full_weights_that_fails_keeps_the_stage_before_with_a_n
     # the early stages saw the plate at a hundredth of its weight, the last at its whole
     assert smoother.weights_seen[0][y] == pytest.approx(0.01 / 4.0)
     assert smoother.weights_seen[-1][y] == pytest.approx(1 / 4.0)
+    # its budget is bounded (two continuation steps'), the fallback being at hand
+    assert smoother.limits[-1] == ("full weights", 2 * SmootherSettings().step_max_iter)
 
 
 def _scripted(window, dynamics, failures, **settings):
