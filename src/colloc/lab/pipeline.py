@@ -60,6 +60,7 @@ from colloc.lab.exports import LabExport, LabFileError
 from colloc.lab.gaps import GAP_CONTEXT, Gap, fill_gaps
 from colloc.lab.kinematics import joint_angles, segment_orientation, segment_orientations
 from colloc.lab.markers import LANDMARKS, MarkerSet
+from colloc.lab.noise import off_plate_noise, robust_sd
 from colloc.lab.plausibility import (
     MAX_MARKER_SPEED,
     belt_problems,
@@ -81,8 +82,6 @@ MAX_LENGTH_CHANGE = 0.1
 #: Relative difference between a segment's measured mean length and the model's (from the
 #: height) above which the trial carries a note.
 LENGTH_NOTE_FRACTION = 0.15
-
-_MAD_TO_SD = 1.4826
 
 
 @dataclass(frozen=True)
@@ -407,11 +406,6 @@ def _segment_lengths(
     return problems, lengths, notes
 
 
-def _robust_sd(residual: np.ndarray) -> float:
-    residual = residual[np.isfinite(residual)]
-    return float(_MAD_TO_SD * np.median(np.abs(residual - np.median(residual))))
-
-
 def _noise(
     angles: dict[str, list[np.ndarray]],
     trunk: dict[str, np.ndarray],
@@ -421,23 +415,19 @@ def _noise(
     settings: LabSettings,
 ) -> dict[str, Any]:
     """Noise levels per trial column group, from the unfiltered minus the filtered signals."""
-    joint = _robust_sd(
+    joint = robust_sd(
         np.concatenate(
             [(r - s).ravel() for r, s in zip(angles["raw"], angles["smooth"], strict=True)]
         )
     )
-    position = _robust_sd((trunk["raw"][:, :2] - trunk["smooth"][:, :2]).ravel())
-    trunk_angle = _robust_sd(trunk["raw"][:, 2] - trunk["smooth"][:, 2])
+    position = robust_sd((trunk["raw"][:, :2] - trunk["smooth"][:, :2]).ravel())
+    trunk_angle = robust_sd(trunk["raw"][:, 2] - trunk["smooth"][:, 2])
     # a plate's noise shows where its foot is off it, in the second differences of its
     # samples (white noise: variance 6 sigma^2); the filter's ringing after an impact is not
     # noise, nor are the impacts
-    differences = []
-    for side in SIDES:
-        measured = loads[side]["raw"][:, :2]
-        unloaded = (loads[side]["smooth"][:, 1] < UNLOADED_FORCE)[1:-1]
-        rows = unloaded if unloaded.sum() >= 10 else np.ones(unloaded.size, bool)
-        differences.append(np.diff(measured, 2, axis=0)[rows].ravel())
-    force = _robust_sd(np.concatenate(differences)) / np.sqrt(6.0)
+    force = off_plate_noise(
+        [(loads[side]["raw"][:, :2], loads[side]["smooth"][:, 1]) for side in SIDES]
+    )
     bandwidth = 2.0 * np.pi * settings.cutoff_hz
     std = {
         "joint_angle": joint,
@@ -448,7 +438,7 @@ def _noise(
         "trunk_angle_rate": trunk_angle * bandwidth,
         "ground_reaction_force": force,
     }
-    marker = _robust_sd(np.concatenate([(raw[n] - smooth[n]).ravel() for n in raw]))
+    marker = robust_sd(np.concatenate([(raw[n] - smooth[n]).ravel() for n in raw]))
     unmeasured = sorted(group for group, value in std.items() if not value > 0)
     return {
         "std": {

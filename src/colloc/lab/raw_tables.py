@@ -17,9 +17,9 @@ import pandas as pd
 
 from colloc.data.columns import SIDES, TIME_COLUMN
 from colloc.data.tables import PLATE_COLUMNS
-from colloc.gait.strikes import UNLOADED_FORCE
 from colloc.lab.exports import LabExport
 from colloc.lab.markers import LANDMARKS, MarkerSet
+from colloc.lab.noise import off_plate_noise
 
 #: The gait2d segment each landmark moves with (without the side): the hip joint centre is
 #: the trunk's origin, the lateral epicondyle sits on the femur, the malleolus on the shank.
@@ -31,8 +31,6 @@ LANDMARK_SEGMENTS: dict[str, str] = {
     "heel": "foot",
     "toe": "foot",
 }
-
-_MAD_TO_SD = 1.4826
 
 
 def marker_table(
@@ -97,17 +95,16 @@ def plate_noise(table: pd.DataFrame) -> dict[str, float]:
     while the foot is off its plate (white noise: variance ``6 sigma^2``), robustly
     (1.4826 times the median absolute deviation). Zero when nothing varies."""
     out = {}
-    for quantity in ("force", "moment"):
-        differences = []
-        for side in SIDES:
-            load = table[f"{side}_force_y"].to_numpy(dtype=float)
-            names = ("force_x", "force_y") if quantity == "force" else ("moment",)
-            values = table[[f"{side}_{n}" for n in names]].to_numpy(dtype=float)
-            unloaded = (load < UNLOADED_FORCE)[1:-1]
-            rows = unloaded if unloaded.sum() >= 10 else np.ones(unloaded.size, bool)
-            differences.append(np.diff(values, 2, axis=0)[rows].ravel())
-        d = np.concatenate(differences)
-        out[quantity] = float(_MAD_TO_SD * np.median(np.abs(d - np.median(d))) / np.sqrt(6.0))
+    for quantity, names in (("force", ("force_x", "force_y")), ("moment", ("moment",))):
+        out[quantity] = off_plate_noise(
+            [
+                (
+                    table[[f"{side}_{n}" for n in names]].to_numpy(dtype=float),
+                    table[f"{side}_force_y"].to_numpy(dtype=float),
+                )
+                for side in SIDES
+            ]
+        )
     return out
 
 
