@@ -101,3 +101,58 @@ def test_causal_phase_holds_at_the_strides_end_and_checks_its_arguments():
         arguments = {"heel_strikes": [1.0], "stride_duration": 1.0, "phase_at_strike": 0.0}
         with pytest.raises(ValueError, match=message):
             causal_gait_phase(t, **{**arguments, **kwargs})
+
+
+def _strided_sine(strikes, rate=200.0, shift=0.0):
+    """sin(2 pi phi) and phi**2 sampled over strides of unequal length: their gait-cycle
+    shapes are known exactly whatever the strides' durations."""
+    from colloc.data.phase import gait_phase
+
+    t = np.arange(strikes[0] - 0.3, strikes[-1] + 0.3, 1.0 / rate)
+    phi = gait_phase(t, np.asarray(strikes) + shift, extrapolate=True)
+    return t, np.column_stack([np.sin(2 * np.pi * phi), phi**2])
+
+
+def test_phase_normalised_strides_have_the_signals_known_shape():
+    from colloc.data.phase import phase_normalised
+
+    strikes = [0.0, 1.1, 2.0, 3.3, 4.2]
+    t, x = _strided_sine(strikes)
+    phase, cycles, mean = phase_normalised(t, x, strikes, points=41)
+    assert cycles.shape == (4, 41, 2)
+    # linear interpolation of 200 Hz samples: the error of a sine's chord at 5 ms steps
+    np.testing.assert_allclose(mean[:, 0], np.sin(2 * np.pi * phase), atol=2e-3)
+    np.testing.assert_allclose(mean[:-1, 1], phase[:-1] ** 2, atol=2e-4)  # phi wraps at 1
+    # strides the samples do not wholly cover are left out; none gives NaN
+    assert phase_normalised(t, x, [-1.0, 0.5, 1.1, 9.0])[1].shape[0] == 1
+    assert np.isnan(phase_normalised(t, x, [-1.0, 9.0])[2]).all()
+
+
+def test_a_drift_in_phase_is_not_an_error_between_mean_strides():
+    from colloc.identify.gait_walk import phase_difference
+    from colloc.identify.validation import rms
+
+    strikes = np.array([0.0, 1.1, 2.2, 3.3, 4.4, 5.5])
+    t, x = _strided_sine(strikes)
+    # the same strides half a stride later, sampled at the same times
+    later = _strided_sine(strikes, shift=0.55)[1]
+    n = len(t)
+    # sample by sample the two walks are opposite in the sine: RMS about sqrt(2)
+    assert rms(x[:n, 0] - later[:n, 0]) > 1.2
+    drift = phase_difference((t, x, strikes), (t, later, strikes + 0.55))
+    assert drift is not None and np.max(drift) < 2e-3
+    # a different shape is seen: twice the amplitude differs by the sine's own RMS
+    bigger = phase_difference((t, x, strikes), (t, 2 * x, strikes))
+    assert bigger is not None and bigger[0] == pytest.approx(np.sqrt(0.5), rel=0.03)
+    assert phase_difference((t, x, strikes), (t, x, [0.0, 99.0])) is None
+
+
+def test_phase_normalised_names_bad_arguments():
+    from colloc.data.phase import phase_normalised
+
+    with pytest.raises(ValueError, match="points"):
+        phase_normalised([0.0, 1.0], [1.0, 2.0], [0.0, 1.0], points=1)
+    with pytest.raises(ValueError, match=r"shapes \(N,\) and \(N, m\)"):
+        phase_normalised([0.0, 1.0, 2.0], [1.0, 2.0], [0.0, 1.0])
+    with pytest.raises(ValueError, match="strictly increasing"):
+        phase_normalised([0.0, 0.0], [1.0, 2.0], [0.0, 1.0])

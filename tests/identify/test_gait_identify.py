@@ -55,6 +55,17 @@ def test_direct_start_recovers_the_known_controller_and_walks_the_held_out_part(
     # the direct fit is exact here too, and walked the same way
     assert walk["direct_walk"]["walks"] is True
     assert max(walk["direct_walk"]["angle_rms_deg"].values()) < 0.01
+    # the true controller walked the same belt from the same start: the identified walk
+    # (its controller equal to the truth to 1e-6) is that walk, sample by sample and by phase
+    assert walk["truth_walk"]["walks"] is True
+    assert walk["truth_walk"]["strides"] == walk["strides"]
+    against = walk["against_truth_walk"]
+    assert against["seconds"] == pytest.approx(walk["simulated_seconds"], abs=0.02)
+    assert max(against["angle_rms_deg"].values()) < 1e-3
+    assert max(against["angle_rms_phase_deg"].values()) < 1e-3
+    # retracing the record, the walk's mean stride is the record's
+    assert set(walk["angle_rms_phase"]) == set(walk["angle_rms"])
+    assert max(walk["angle_rms_phase"].values()) < 0.01
     assert summary["iterations"] == 0 and summary["status"] == "Maximum_Iterations_Exceeded"
     assert code == 1  # the solver did not converge (no iterations allowed): said by the code
     for key in ("times", "peak_rss_mb", "run_id", "problem"):
@@ -65,7 +76,7 @@ def test_the_figure_set_shows_the_schedules_with_bands_the_vaf_and_the_held_out_
     *_, figures = identified
     stems = {
         "tstar_schedule", "stiffness_schedule", "damping_schedule", "gain_schedule",
-        "fitted_angles", "torque_vaf", "validation_walk",
+        "fitted_angles", "torque_vaf", "validation_walk", "validation_walk_phase",
     }  # fmt: skip
     for stem in stems:
         for suffix in (".png", ".svg"):

@@ -393,8 +393,17 @@ def _gait_identify(args: argparse.Namespace) -> int:
     for joint in vaf["collocation"]:
         print(f"  {joint:<12}" + "".join(f" {vaf[name][joint]:8.4f}" for name in vaf))
     print(f"held-out forward simulation: {_walk_line(run.validation)}")
-    if run.validation.get("direct_walk"):
-        print(f"  under the direct fit: {_walk_line(run.validation['direct_walk'])}")
+    for name, label in (("direct_walk", "the direct fit"), ("truth_walk", "the true controller")):
+        if run.validation.get(name):
+            print(f"  under {label}: {_walk_line(run.validation[name])}")
+    against = run.validation.get("against_truth_walk") or {}
+    if against.get("angle_rms_deg"):
+        by_sample, by_phase = against["angle_rms_deg"], against.get("angle_rms_phase_deg") or {}
+        print(
+            f"  identified walk against the true controller's over {against['seconds']:.1f} s: "
+            f"{_span(by_sample)} deg RMS sample by sample"
+            + (f", {_span(by_phase)} deg between mean strides" if by_phase else "")
+        )
     workers_said = (
         f", workers {', '.join(f'{v:.0f}' for v in worker_peaks)} MB" if worker_peaks else ""
     )
@@ -424,11 +433,16 @@ def _walk_line(walk: dict[str, Any]) -> str:
         line += f"; {walk['strides']} strides" + (f" of the record's {of}" if of else "")
     rms_deg = walk.get("angle_rms_deg") or {}
     if rms_deg:
-        line += (
-            f"; joint angles {min(rms_deg.values()):.1f}-{max(rms_deg.values()):.1f} deg RMS "
-            "from the measured"
-        )
+        line += f"; joint angles {_span(rms_deg)} deg RMS from the measured"
+    by_phase = walk.get("angle_rms_phase_deg") or {}
+    if by_phase:
+        line += f" ({_span(by_phase)} between mean strides)"
     return line
+
+
+def _span(values: dict[str, float]) -> str:
+    """``lowest-highest`` of a joint -> value mapping, to a tenth."""
+    return f"{min(values.values()):.1f}-{max(values.values()):.1f}"
 
 
 def gait_simulate_checks(args: argparse.Namespace) -> tuple[Any, list[str]]:

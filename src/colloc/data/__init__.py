@@ -16,7 +16,12 @@ from colloc.data.columns import (
     TRUNK_RATE_COLUMNS,
 )
 from colloc.data.events import detect_heel_strikes
-from colloc.data.phase import causal_gait_phase, gait_phase, unwrapped_gait_phase
+from colloc.data.phase import (
+    causal_gait_phase,
+    gait_phase,
+    phase_normalised,
+    unwrapped_gait_phase,
+)
 from colloc.data.records import WinterGaitCycle, read_vertical_grf, read_winter_gait_cycle
 from colloc.data.split import split
 from colloc.data.trial import Trial, read_trial
@@ -34,6 +39,7 @@ __all__ = [
     "belt_position",
     "detect_heel_strikes",
     "gait_phase",
+    "phase_normalised",
     "unwrapped_gait_phase",
     "causal_gait_phase",
     "perturbation_belt_speed",

@@ -158,3 +158,67 @@ def causal_gait_phase(
     since = t - hs[np.clip(k, 0, None)]
     phase = k + np.minimum(phase_at_strike + since / stride_duration, 1.0 + phase_at_strike)
     return np.where(k < 0, np.nan, phase)
+
+
+def phase_normalised(
+    time: ArrayLike, values: ArrayLike, heel_strikes: ArrayLike, points: int = 51
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Each complete stride resampled on a common gait-cycle phase; their mean and spread.
+
+    The usual time normalisation of gait (0-100 % of the cycle): the samples of stride ``k``
+    (from strike ``k`` to strike ``k + 1``) are interpolated linearly at the phases
+    ``0, 1/(points-1), ..., 1``. Two walks compared on these mean cycles differ only in the
+    shape of their strides, not in a drift of phase between them.
+
+    Parameters
+    ----------
+    time : array_like, shape (N,)
+        Increasing sample times [s].
+    values : array_like, shape (N,) or (N, m)
+        The signals.
+    heel_strikes : array_like
+        Increasing heel-strike times [s] of the reference foot; strides that the samples do
+        not cover wholly are left out.
+    points : int
+        Phase points per cycle, at least 2.
+
+    Returns
+    -------
+    phase : ndarray, shape (points,)
+    cycles : ndarray, shape (S, points, m)
+        Each complete stride on the phase grid (``S`` may be 0).
+    mean : ndarray, shape (points, m)
+        Their mean, NaN when ``S`` is 0.
+
+    Raises
+    ------
+    ValueError
+        When the shapes disagree, ``time`` does not increase or ``points`` is below 2.
+    """
+    t = np.asarray(time, dtype=float)
+    x = np.asarray(values, dtype=float)
+    x = x[:, None] if x.ndim == 1 else x
+    hs = np.asarray(heel_strikes, dtype=float).ravel()
+    problems = []
+    if t.ndim != 1 or x.ndim != 2 or x.shape[0] != t.size:
+        problems.append(
+            f"time, values: expected shapes (N,) and (N, m), found {t.shape} and {x.shape}"
+        )
+    elif t.size and np.any(np.diff(t) <= 0):
+        problems.append("time: expected strictly increasing sample times")
+    if not (isinstance(points, int | np.integer) and points >= 2):
+        problems.append(f"points: expected an integer >= 2, found {points!r}")
+    if problems:
+        raise ValueError("; ".join(problems))
+    phase = np.linspace(0.0, 1.0, int(points))
+    strides = [
+        (a, b)
+        for a, b in zip(hs[:-1], hs[1:], strict=True)
+        if t.size and b > a and a >= t[0] and b <= t[-1]
+    ]
+    cycles = np.empty((len(strides), phase.size, x.shape[1]))
+    for k, (a, b) in enumerate(strides):
+        at = a + phase * (b - a)
+        cycles[k] = np.column_stack([np.interp(at, t, column) for column in x.T])
+    mean = cycles.mean(axis=0) if strides else np.full((phase.size, x.shape[1]), np.nan)
+    return phase, cycles, mean

@@ -104,12 +104,16 @@ class GaitIdentification:
         smoothed it).
     validation : dict
         ``torque_vaf`` (``collocation`` / ``direct`` / ``truth`` when the trial records its
-        controller -> joint -> VAF), ``walks``, ``direct_walk`` (the direct fit's
-        ``walks``, ``message``, ``simulated_seconds``, ``strides``, ``angle_rms_deg``),
+        controller -> joint -> VAF), ``walks``, ``direct_walk`` and, when the truth is
+        known, ``truth_walk`` (that controller's ``walks``, ``message``,
+        ``simulated_seconds``, ``strides``, ``angle_rms_deg``, ``angle_rms_phase_deg``),
         ``simulated_seconds``, ``message``, ``strides`` (the simulation's right heel strikes:
         the strides to a fall if it falls) against ``measured_strides`` (the record's),
-        ``angle_rms_deg`` and ``angle_vaf`` (joint -> value), ``times``,
-        ``measured_angles``, ``simulated_angles`` (arrays).
+        ``angle_rms_deg``, ``angle_vaf`` and ``angle_rms_phase_deg`` (joint -> value; the
+        last between mean strides), ``against_truth_walk``
+        (:func:`colloc.identify.gait_validation.against_walk`), ``times``,
+        ``measured_angles``, ``simulated_angles`` (arrays) and ``walk_signals`` (each
+        walk's whole result).
     metrics : dict
         ``K_relative_error``, ``Tstar_relative_error`` and their ``direct_`` twins,
         ``fraction_within_3se`` (None without a truth).

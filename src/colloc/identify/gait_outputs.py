@@ -52,7 +52,28 @@ DEFINITIONS: dict[str, str] = {
         "1 - var(predicted - measured) / var(measured) of each joint's held-out torque, the "
         "prediction from the held-out smoothed signals"
     ),
-    "walks": "the held-out forward simulation under the identified controller did not fall",
+    "walks": (
+        "the held-out forward simulation under the identified controller did not fall (it "
+        "says nothing of how close it walked: see angle_rms_phase and against_truth_walk)"
+    ),
+    "angle_rms": (
+        "joint angles' RMS [deg] between the held-out walk and the record, sample by sample: "
+        "a walk without the record's motor noise drifts in phase after a perturbation and "
+        "reads tens of degrees here under any controller, the true one's included"
+    ),
+    "angle_rms_phase": (
+        "joint angles' RMS [deg] over the gait cycle between the walk's and the record's mean "
+        "strides, each stride normalised from one right heel strike to the next: the shape of "
+        "the walk without its drift in phase"
+    ),
+    "truth_walk": (
+        "the true controller's walk of the held-out part under the same belt from the same "
+        "start (only when the truth is known)"
+    ),
+    "against_truth_walk": (
+        "the identified controller's walk against the true controller's over the time both "
+        "walked: angle_rms_deg sample by sample, angle_rms_phase_deg between mean strides [deg]"
+    ),
 }
 
 
@@ -88,7 +109,10 @@ def gait_summary(run: GaitIdentification, run_id: str) -> dict[str, Any]:
                 "measured_strides": v.get("measured_strides"),
                 "angle_rms": v.get("angle_rms_deg"),
                 "angle_vaf": v.get("angle_vaf"),
+                "angle_rms_phase": v.get("angle_rms_phase_deg"),
                 "direct_walk": v.get("direct_walk"),
+                "truth_walk": v.get("truth_walk"),
+                "against_truth_walk": v.get("against_truth_walk"),
             },
             # fitted against measured joint angles over the fit window, degrees
             "fit_angle_rms": dict(
@@ -243,10 +267,32 @@ def save_gait_plots(
             f"held-out part, forward simulation: {v['message']}",
             "simulated",
         )
+    if "walk_signals" in v:
+        figures["validation_walk_phase"] = _mean_strides_figure(v)
     paths: list[Path] = []
     for stem, fig in figures.items():
         paths += save_figure(fig, directory, stem, formats)
     return paths
+
+
+def _mean_strides_figure(validation: dict[str, Any]) -> Any:
+    """The held-out walks' mean strides over the gait cycle against the record's strides."""
+    from colloc.data.phase import phase_normalised
+    from colloc.plot import plot_mean_strides
+
+    held_out = validation["held_out"]
+    # the record's strides over the whole held-out part, each walk's over what it walked
+    phase, record, _ = phase_normalised(held_out["times"], held_out["angles"], held_out["strikes"])
+    walks = {}
+    for name, w in validation["walk_signals"].items():
+        label = "identified" if name == "collocation" else name
+        walks[f"{label} walk"] = phase_normalised(
+            w["times"] - w["times"][0], w["simulated_angles"], w["simulated_strikes"]
+        )[2]
+    return plot_mean_strides(
+        phase, record, walks, JOINT_NAMES,
+        "held-out part over the gait cycle: the record's strides and each walk's mean stride",
+    )  # fmt: skip
 
 
 def _own_gains(

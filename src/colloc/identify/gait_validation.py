@@ -24,7 +24,7 @@ from colloc.identify.gait_read import (
 )
 from colloc.identify.gait_settings import GaitIdentifySettings
 from colloc.identify.gait_stage import Progress
-from colloc.identify.gait_walk import WalkJob, walk
+from colloc.identify.gait_walk import WalkJob, phase_difference, walk
 from colloc.identify.gait_windows import (
     WindowMap,
     fit_windows,
@@ -32,16 +32,17 @@ from colloc.identify.gait_windows import (
     smoothing_source,
     window_jobs,
 )
-from colloc.identify.validation import variance_accounted_for
+from colloc.identify.validation import rms, variance_accounted_for
 
 #: Width [m] added below and above the fit part's hip-height range: leaving it in the
 #: validation simulation counts as a fall (as in :func:`simulate_walking`'s default).
 HIP_MARGIN = 0.15
 
 
-#: What the validation keeps of the direct fit's held-out walk.
-DIRECT_WALK_KEYS = (
+#: What the validation keeps of the direct fit's and the true controller's held-out walks.
+WALK_KEYS = (
     "walks", "message", "simulated_seconds", "strides", "measured_strides", "angle_rms_deg",
+    "angle_rms_phase_deg",
 )  # fmt: skip
 
 
@@ -83,18 +84,61 @@ def validate(
         out.update(walks=None, message="not simulated (simulate_validation=False)")
         return out
     # the baseline walked too: whether its gains hold the gait is what tells them apart when
-    # its attenuated gains predict noisy states' torques as well (torque_vaf); the two walks
-    # run side by side on the workers when there are some
+    # its attenuated gains predict noisy states' torques as well (torque_vaf); the true
+    # controller, when known, walks the same belt from the same start: the yardstick of the
+    # identified walk (a held-out part walked without noise drifts from the noisy record
+    # under any controller); the walks run side by side on the workers when there are some
     identified_job = _walk_job(settings, data, controllers["collocation"], states, phase_all)
-    direct = controllers["direct"]
-    jobs = [identified_job, dataclasses.replace(identified_job, Tstar=direct.Tstar, K=direct.K)]
-    say("validate", "forward simulations of the held-out part (identified, direct)")
-    identified, baseline = (
-        (walk(job) for job in jobs) if map_windows is None else map_windows(walk, jobs)
-    )
+    others = {name: controllers[name] for name in ("direct", "truth") if name in controllers}
+    jobs = [identified_job] + [
+        dataclasses.replace(identified_job, Tstar=c.Tstar, K=c.K) for c in others.values()
+    ]
+    say("validate", f"forward simulations of the held-out part (identified, {', '.join(others)})")
+    walks = list((walk(job) for job in jobs) if map_windows is None else map_windows(walk, jobs))
+    identified = walks[0]
     out.update(identified)
-    out["direct_walk"] = {k: baseline[k] for k in DIRECT_WALK_KEYS}
+    out["walk_signals"] = {"collocation": identified} | dict(zip(others, walks[1:], strict=True))
+    out["held_out"] = {
+        "times": identified_job.times - identified_job.times[0],
+        "angles": identified_job.measured_angles,
+        "strikes": identified_job.measured_strikes,
+    }
+    for name, other in zip(others, walks[1:], strict=True):
+        out[f"{name}_walk"] = {k: other[k] for k in WALK_KEYS}
+    if "truth" in others:
+        out["against_truth_walk"] = against_walk(identified, out["walk_signals"]["truth"])
     return out
+
+
+def against_walk(walked: dict[str, Any], reference: dict[str, Any]) -> dict[str, Any]:
+    """A held-out walk against another under the same belt from the same start (the true
+    controller's): joint angles' RMS sample by sample and between their mean strides, over
+    the time both walked.
+
+    Parameters
+    ----------
+    walked, reference : dict
+        :func:`colloc.identify.gait_walk.walk`'s results.
+
+    Returns
+    -------
+    dict
+        ``seconds`` compared, ``angle_rms_deg`` and ``angle_rms_phase_deg`` (joint -> value;
+        the latter empty before a whole stride of each).
+    """
+    n = min(walked["times"].size, reference["times"].size)
+    t = walked["times"][:n] - walked["times"][0]
+    a, b = walked["simulated_angles"][:n], reference["simulated_angles"][:n]
+    by_phase = phase_difference(
+        (t, a, walked["simulated_strikes"]), (t, b, reference["simulated_strikes"])
+    )
+    return {
+        "seconds": float(t[-1]) if n else 0.0,
+        "angle_rms_deg": dict(zip(JOINT_NAMES, map(float, np.degrees(rms(a - b))), strict=True)),
+        "angle_rms_phase_deg": {}
+        if by_phase is None
+        else dict(zip(JOINT_NAMES, map(float, np.degrees(by_phase)), strict=True)),
+    }
 
 
 def _smoothed_held_out(

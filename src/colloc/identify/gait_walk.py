@@ -13,6 +13,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from colloc.data.phase import phase_normalised
 from colloc.identify.gait_windows import gait_dynamics
 from colloc.identify.validation import rms, variance_accounted_for
 
@@ -78,8 +79,11 @@ def walk(job: WalkJob) -> dict[str, object]:
     dict
         ``walks``, ``message``, ``simulated_seconds``, ``strides`` (the simulation's right
         heel strikes: the strides to a fall if it falls) and ``measured_strides`` (the
-        whole record's), ``angle_rms_deg`` and ``angle_vaf`` (joint -> value),
-        ``times``, ``measured_angles``, ``simulated_angles``.
+        whole record's), ``angle_rms_deg`` and ``angle_vaf`` (joint -> value, sample by
+        sample), ``angle_rms_phase_deg`` (joint -> RMS over the gait cycle between the
+        simulation's and the record's mean strides, :func:`phase_difference`; empty before a
+        whole stride of each), ``times``, ``measured_angles``, ``simulated_angles`` and
+        ``simulated_strikes`` (seconds from the start).
     """
     from colloc.gait.closed_loop import simulate_walking
 
@@ -103,6 +107,9 @@ def walk(job: WalkJob) -> dict[str, object]:
     measured = job.measured_angles[:n]
     simulated = record.states[:, 3:9]
     names = job.joint_names
+    by_phase = phase_difference(
+        (t[:n], simulated, record.right_heel_strikes), (t[:n], measured, job.measured_strikes)
+    )
     return {
         "walks": not record.fell,
         "message": record.message,
@@ -117,7 +124,38 @@ def walk(job: WalkJob) -> dict[str, object]:
         )
         if n >= 2
         else {},
+        "angle_rms_phase_deg": {}
+        if by_phase is None
+        else dict(zip(names, map(float, np.degrees(by_phase)), strict=True)),
         "times": job.times[:n],
         "measured_angles": measured,
         "simulated_angles": simulated,
+        "simulated_strikes": np.asarray(record.right_heel_strikes, dtype=float),
     }
+
+
+#: A walk's signals for :func:`phase_difference`: times, values (N, m) and right heel strikes.
+Walked = tuple[np.ndarray, np.ndarray, np.ndarray]
+
+
+def phase_difference(a: Walked, b: Walked) -> np.ndarray | None:
+    """RMS over the gait cycle of the difference between two walks' mean strides.
+
+    Each walk's complete strides are normalised to the gait cycle
+    (:func:`colloc.data.phase.phase_normalised`) and averaged; a walk that drifts in phase
+    from the other, stride for stride alike, differs by nothing here where it differs by the
+    whole swing sample by sample.
+
+    Parameters
+    ----------
+    a, b : (times, values, right heel strikes)
+
+    Returns
+    -------
+    ndarray, shape (m,) or None
+        None when either walk has no complete stride.
+    """
+    means = [phase_normalised(*walked)[2] for walked in (a, b)]
+    if any(np.isnan(m).all() for m in means):
+        return None
+    return rms(means[0] - means[1])

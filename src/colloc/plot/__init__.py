@@ -15,6 +15,7 @@ _EXPORTS = {
     "PlotInputError": "colloc.plot.common",
     "save_figure": "colloc.plot.common",
     "plot_angle_comparison": "colloc.plot.gait_identification",
+    "plot_mean_strides": "colloc.plot.gait_identification",
     "plot_schedule": "colloc.plot.gait_identification",
     "plot_torque_vaf": "colloc.plot.gait_identification",
     "link_positions": "colloc.plot.geometry",
@@ -32,6 +33,7 @@ if TYPE_CHECKING:  # for type checkers; re-exported through __all__
     from colloc.plot.common import PlotInputError, save_figure
     from colloc.plot.gait_identification import (
         plot_angle_comparison,
+        plot_mean_strides,
         plot_schedule,
         plot_torque_vaf,
     )

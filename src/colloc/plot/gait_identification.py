@@ -183,3 +183,46 @@ def plot_bound_against_length(
     ax.legend(fontsize="small")
     fig.suptitle("Cramér–Rao bound of K against the record's length")
     return fig
+
+
+def plot_mean_strides(
+    phase: np.ndarray,
+    record: np.ndarray,
+    walks: Mapping[str, np.ndarray],
+    joint_names: Sequence[str],
+    title: str,
+) -> Figure:
+    """Joint angles [deg] over the gait cycle: the record's strides (mean and ±1 SD band)
+    and each walk's mean stride, one panel per joint.
+
+    Parameters
+    ----------
+    phase : ndarray, shape (n,)
+        Gait-cycle phase in [0, 1].
+    record : ndarray, shape (S, n, k)
+        The record's strides [rad] (:func:`colloc.data.phase.phase_normalised`).
+    walks : mapping
+        Label -> mean stride [rad], shape (n, k).
+    joint_names : sequence of str
+    title : str
+
+    Returns
+    -------
+    Figure
+    """
+    fig = Figure(figsize=(11, 6), layout="constrained")
+    axes = fig.subplots(2, (len(joint_names) + 1) // 2, sharex=True).ravel()
+    strides = np.degrees(np.asarray(record, dtype=float))
+    for j, ax in enumerate(axes[: len(joint_names)]):
+        if strides.shape[0]:
+            mean, sd = strides[:, :, j].mean(axis=0), strides[:, :, j].std(axis=0)
+            ax.fill_between(phase, mean - sd, mean + sd, color="0.8", label="record ±1 SD")
+            ax.plot(phase, mean, color="k", lw=1.5, label="record")
+        for label, values in walks.items():
+            ax.plot(phase, np.degrees(values[:, j]), lw=1.2, label=label)
+        ax.set_title(joint_names[j])
+        ax.set_xlabel("gait cycle (right heel strike to the next)")
+    axes[0].set_ylabel("angle [deg]")
+    axes[0].legend(fontsize="small")
+    fig.suptitle(title)
+    return fig
