@@ -86,3 +86,72 @@ def test_the_command_writes_the_plan_and_refuses_what_it_cannot_plan(tmp_path, c
     assert "pilot: expected a trial whose metadata records its controller" in (
         capsys.readouterr().err
     )
+
+
+class _FakeSimulation:
+    """simulate_trial standing in for the minutes of a real pilot: it writes the fixture (a
+    simulated walk) where the settings say and records what it was asked for."""
+
+    def __init__(self, fell=False):
+        self.fell_flag, self.asked = fell, []
+
+    def __call__(self, settings, progress=None):
+        from types import SimpleNamespace
+
+        self.asked.append(settings)
+        shutil.copytree(FIXTURE, settings.out / "trial")
+        message = "fell at 3.1 s" if self.fell_flag else "walked"
+        return SimpleNamespace(
+            out=settings.out, fell=self.fell_flag, summary={"message": message}
+        )
+
+
+def test_a_plan_without_a_pilot_simulates_one_for_the_subject_and_keeps_it(
+    tmp_path, capsys, monkeypatch
+):
+    import colloc.gait.workflow as workflow
+
+    fake = _FakeSimulation()
+    monkeypatch.setattr(workflow, "simulate_trial", fake)
+    out = tmp_path / "plan"
+    args = ["gait", "plan", "--target-k", "0.2", "--speed", "1.1", "--mass", "68"]
+    args += ["--height", "1.72", "--points", "20", "--motor-noise", "3", "--seed", "4"]
+    code = main(args + ["--out", str(out), "--json", str(out / "plan.json")])
+    assert code == 0, capsys.readouterr().err
+    (asked,) = fake.asked
+    assert (asked.speed, asked.body_mass, asked.height) == (1.1, 68.0, 1.72)
+    assert (asked.num_points, asked.motor_noise, asked.seed) == (20, 3.0, 4)
+    assert asked.duration == 60.0 and asked.out == out / "pilot"
+    summary = json.loads((out / "plan.json").read_text())
+    # the plan is the pilot's own: the same as planning from the trial it wrote
+    direct = plan_record(out / "pilot" / "trial", target_k=0.2)
+    assert summary["needed_record_seconds"] == pytest.approx(direct.needed_record_seconds)
+    assert summary["pilot"]["simulated"]["speed"] == 1.1
+    assert summary["pilot"]["simulated"]["seed"] == 4
+    assert summary["notes"][0].startswith("pilot simulated: 60 s at 1.1 m/s, 68 kg")
+    # without --out the pilot goes to a folder that is removed, and that is said
+    assert main(["gait", "plan", "--length", "120", "--speed", "1.1"]) == 0
+    assert "now removed (--out keeps it)" in capsys.readouterr().out
+    assert not fake.asked[-1].out.exists()
+
+
+def test_a_plan_refuses_a_pilot_that_fell_and_pilot_options_beside_a_pilot(
+    tmp_path, capsys, monkeypatch
+):
+    import colloc.gait.workflow as workflow
+
+    monkeypatch.setattr(workflow, "simulate_trial", _FakeSimulation(fell=True))
+    assert main(["gait", "plan", "--length", "60", "--out", str(tmp_path / "p")]) == 2
+    assert "pilot: the simulated walk fell (fell at 3.1 s)" in capsys.readouterr().err
+    # options of a pilot to simulate beside a pilot given: which one is meant is not known
+    assert main(["gait", "plan", str(FIXTURE), "--length", "60", "--speed", "1.2"]) == 2
+    assert "--speed: these describe a pilot to simulate" in capsys.readouterr().err
+    # a bad pilot option is named by its flag, before any simulation
+    fake = _FakeSimulation()
+    monkeypatch.setattr(workflow, "simulate_trial", fake)
+    assert main(["gait", "plan", "--length", "60", "--speed", "9", "--mass", "-1"]) == 2
+    err = capsys.readouterr().err
+    assert "--speed: expected a walking speed" in err and "--mass: expected a positive" in err
+    assert main(["gait", "plan", "--target-k", "-0.2", "--speed", "1.2"]) == 2
+    assert "target_k: expected a positive number" in capsys.readouterr().err
+    assert fake.asked == []

@@ -1,11 +1,30 @@
-"""``colloc gait plan``: how long to record for a target bound on the gains, from a pilot walk."""
+"""``colloc gait plan``: how long to record for a target bound on the gains, from a pilot walk
+(the user's, or one simulated for the subject, speed, schedule and noise planned for)."""
 
 from __future__ import annotations
 
 import argparse
+import dataclasses
+import tempfile
+import time
+from pathlib import Path
 from typing import Any
 
-from colloc.cli.common import number, output_problems, path_arg, report_problems
+from colloc.cli.common import (
+    number,
+    output_problems,
+    path_arg,
+    positive_int,
+    report_problems,
+    step_printer,
+)
+
+#: Options that describe the pilot to simulate (destination -> flag), with no pilot given.
+PILOT_OPTIONS = {
+    "speed": "--speed", "mass": "--mass", "height": "--height", "points": "--points",
+    "motor_noise": "--motor-noise", "noise": "--noise", "pilot_seconds": "--pilot-seconds",
+    "seed": "--seed",
+}  # fmt: skip
 
 
 def add_parser(gs: Any) -> None:
@@ -18,9 +37,34 @@ def add_parser(gs: Any) -> None:
     pp.add_argument(
         "pilot",
         type=path_arg,
+        nargs="?",
+        default=None,
         help="a trial that records its controller, e.g. colloc gait simulate's (its walk is "
-        "the design)",
+        "the design); without it a pilot is simulated from the options below",
     )
+    sim = pp.add_argument_group(
+        "the pilot simulated when none is given (the study planned for; defaults as colloc "
+        "gait simulate's)"
+    )
+    sim.add_argument("--speed", type=number, default=None, help="mean belt speed [m/s]")
+    sim.add_argument("--mass", type=number, default=None, help="body mass [kg]")
+    sim.add_argument("--height", type=number, default=None, help="body height [m]")
+    sim.add_argument(
+        "--points", type=positive_int, default=None, help="schedule points P of the controller"
+    )
+    sim.add_argument(
+        "--motor-noise", type=number, default=None, help="motor noise on each torque [N m]"
+    )
+    sim.add_argument(
+        "--noise",
+        type=number,
+        default=None,
+        help="the lab's sensor noise as a multiple of the default lab noise",
+    )
+    sim.add_argument(
+        "--pilot-seconds", type=number, default=None, help="length of the pilot walk [s] (60)"
+    )
+    sim.add_argument("--seed", type=int, default=None, help="seed of the pilot (0)")
     pp.add_argument(
         "--target-k",
         type=number,
@@ -51,24 +95,49 @@ def run(args: argparse.Namespace) -> int:
     problems = output_problems(args.json, args.out)
     if args.target_k is None and args.length is None:
         problems.append("--target-k / --length: expected at least one, found neither")
-    if not args.pilot.is_dir():
-        problems.append(f"pilot: expected a trial directory, found {str(args.pilot)!r}")
+    given = [flag for dest, flag in PILOT_OPTIONS.items() if getattr(args, dest) is not None]
+    simulation = None
+    if args.pilot is not None:
+        if not args.pilot.is_dir():
+            problems.append(f"pilot: expected a trial directory, found {str(args.pilot)!r}")
+        if given:
+            problems.append(
+                f"{', '.join(given)}: these describe a pilot to simulate, but the pilot "
+                f"{str(args.pilot)!r} was given; give one or the other"
+            )
+    else:
+        simulation, more = _pilot_settings(args)
+        problems += more
     if report_problems("colloc gait plan", problems):
         return 2
     from colloc.gait.outputs import write_json
-    from colloc.identify.gait_plan import plan_record
+    from colloc.identify.gait_plan import plan_for_subject, plan_record
 
-    try:
-        plan = plan_record(
-            args.pilot,
-            target_k=args.target_k,
-            record_seconds=args.length,
-            noise_std=args.torque_noise,
-            fit_fraction=args.fit_fraction,
+    options = {
+        "target_k": args.target_k,
+        "record_seconds": args.length,
+        "noise_std": args.torque_noise,
+        "fit_fraction": args.fit_fraction,
+    }
+    with tempfile.TemporaryDirectory(prefix="colloc-pilot-") as scratch:
+        try:
+            if simulation is None:
+                plan = plan_record(args.pilot, **options)
+            else:
+                # the pilot is kept beside the plan when it has a folder, for plans to come
+                where = args.out / "pilot" if args.out is not None else Path(scratch) / "pilot"
+                simulation = dataclasses.replace(simulation, out=where)
+                print(f"simulating a {simulation.duration:g} s pilot walk -> {where}", flush=True)
+                plan = plan_for_subject(
+                    simulation, **options, progress=step_printer(time.perf_counter())
+                )
+        except ValueError as error:
+            report_problems("colloc gait plan", [str(error)])
+            return 2
+    if simulation is not None and args.out is None:
+        plan.notes.append(
+            "the pilot was simulated in a temporary folder, now removed (--out keeps it)"
         )
-    except ValueError as error:
-        report_problems("colloc gait plan", [str(error)])
-        return 2
     for length, bound in zip(plan.fitted_seconds, plan.K_bound, strict=True):
         print(f"pilot, {length:.0f} s fitted: K bound {100 * bound:.1f} %")
     print(f"law: K bound = {plan.K_coefficient:.3g} / sqrt(fitted seconds)")
@@ -95,3 +164,34 @@ def run(args: argparse.Namespace) -> int:
     if args.json is not None:
         write_json(summary, args.json)
     return 0
+
+
+def _pilot_settings(args: argparse.Namespace) -> tuple[Any, list[str]]:
+    """The pilot's simulation settings from the options given (the rest at ``colloc gait
+    simulate``'s defaults, the length at the plan's), and their problems."""
+    from colloc.gait.settings import GaitSimulationSettings
+    from colloc.identify.gait_plan import PILOT_SECONDS
+
+    given = {
+        "speed": args.speed,
+        "body_mass": args.mass,
+        "height": args.height,
+        "num_points": args.points,
+        "motor_noise": args.motor_noise,
+        "noise": args.noise,
+        "seed": args.seed,
+    }
+    duration = PILOT_SECONDS if args.pilot_seconds is None else args.pilot_seconds
+    settings = GaitSimulationSettings(
+        duration=duration, **{k: v for k, v in given.items() if v is not None}
+    )
+    flags = {
+        "speed": "--speed", "body_mass": "--mass", "height": "--height",
+        "num_points": "--points", "motor_noise": "--motor-noise", "noise": "--noise",
+        "seed": "--seed", "duration": "--pilot-seconds",
+    }  # fmt: skip
+    problems = []
+    for problem in settings.problems():
+        name = problem.split(":", 1)[0]
+        problems.append(problem.replace(name, flags.get(name, name), 1))
+    return settings, problems

@@ -17,12 +17,13 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from colloc.control.gain_scheduled import GainScheduled
 from colloc.data.columns import TORQUE_COLUMNS
+from colloc.gait.settings import GaitSimulationSettings
 from colloc.identify.direct import schedule_design
 from colloc.identify.gait_controller_fit import relative_spread
 from colloc.identify.gait_read import (
@@ -34,6 +35,9 @@ from colloc.identify.gait_read import (
 )
 from colloc.identify.gait_settings import GaitIdentifySettings
 from colloc.identify.gait_smoother import torque_equation_noise, trial_noise_std
+
+if TYPE_CHECKING:
+    from colloc.gait.workflow import Progress
 
 #: Shares of the pilot record the bound is computed on.
 PILOT_SHARES = (0.25, 0.5, 0.75, 1.0)
@@ -64,6 +68,9 @@ class RecordPlan:
     record_seconds : float or None
         A length asked about; ``K_bound_at_length`` its bound.
     K_bound_at_length : float or None
+    pilot : dict
+        What determined the pilot: its folder and, when simulated for the plan
+        (:func:`plan_for_subject`), every setting of its simulation.
     notes : list of str
     """
 
@@ -79,6 +86,7 @@ class RecordPlan:
     needed_record_seconds: float | None = None
     record_seconds: float | None = None
     K_bound_at_length: float | None = None
+    pilot: dict[str, Any] = field(default_factory=dict)
     notes: list[str] = field(default_factory=list)
 
     def to_dict(self) -> dict[str, Any]:
@@ -131,6 +139,29 @@ def design_bounds(
     )
 
 
+def plan_record_problems(
+    target_k: float | None,
+    record_seconds: float | None,
+    noise_std: float | None,
+    fit_fraction: float,
+) -> None:
+    """Raise ValueError naming every unusable option of :func:`plan_record`."""
+    problems = []
+    for name, value in (("target_k", target_k), ("record_seconds", record_seconds)):
+        if value is not None and not (
+            isinstance(value, int | float) and np.isfinite(value) and value > 0
+        ):
+            problems.append(f"{name}: expected a positive number, found {value!r}")
+    if noise_std is not None and not (
+        isinstance(noise_std, int | float) and np.isfinite(noise_std) and noise_std > 0
+    ):
+        problems.append(f"noise_std: expected N m > 0, found {noise_std!r}")
+    if not (isinstance(fit_fraction, int | float) and 0 < fit_fraction < 1):
+        problems.append(f"fit_fraction: expected a number in (0, 1), found {fit_fraction!r}")
+    if problems:
+        raise ValueError("plan_record: " + "; ".join(problems))
+
+
 def plan_record(
     pilot: str | Path,
     *,
@@ -165,20 +196,7 @@ def plan_record(
     ValueError
         On unusable options or a pilot without a recorded controller (every problem at once).
     """
-    problems = []
-    for name, value in (("target_k", target_k), ("record_seconds", record_seconds)):
-        if value is not None and not (
-            isinstance(value, int | float) and np.isfinite(value) and value > 0
-        ):
-            problems.append(f"{name}: expected a positive number, found {value!r}")
-    if noise_std is not None and not (
-        isinstance(noise_std, int | float) and np.isfinite(noise_std) and noise_std > 0
-    ):
-        problems.append(f"noise_std: expected N m > 0, found {noise_std!r}")
-    if not (isinstance(fit_fraction, int | float) and 0 < fit_fraction < 1):
-        problems.append(f"fit_fraction: expected a number in (0, 1), found {fit_fraction!r}")
-    if problems:
-        raise ValueError("plan_record: " + "; ".join(problems))
+    plan_record_problems(target_k, record_seconds, noise_std, fit_fraction)
     # read and checked as identify reads a trial (its split does not matter here: the
     # whole pilot is the design)
     data = read_gait_data(GaitIdentifySettings(trial=Path(pilot), fit_fraction=0.5))
@@ -244,7 +262,7 @@ def plan_record(
             )
     plan = RecordPlan(
         np.asarray(lengths), np.asarray(k_bounds), np.asarray(t_bounds), k_c, t_c,
-        float(noise_std), float(fit_fraction), notes=notes,
+        float(noise_std), float(fit_fraction), pilot={"trial": str(pilot)}, notes=notes,
     )  # fmt: skip
     if target_k is not None:
         plan.target_K = float(target_k)
@@ -256,4 +274,82 @@ def plan_record(
     return plan
 
 
-__all__ = ["LAW_TOLERANCE", "PILOT_SHARES", "RecordPlan", "design_bounds", "plan_record"]
+#: Seconds of the pilot walk :func:`plan_for_subject` simulates by default: long enough for the
+#: bound's 1/sqrt(length) law on 1/2 to all of it at P = 20 (docs/gait-guide.md).
+PILOT_SECONDS = 60.0
+
+
+def plan_for_subject(
+    simulation: GaitSimulationSettings,
+    *,
+    target_k: float | None = None,
+    record_seconds: float | None = None,
+    noise_std: float | None = None,
+    fit_fraction: float = 0.75,
+    progress: Progress | None = None,
+) -> RecordPlan:
+    """The plan of :func:`plan_record` without a pilot of one's own: a pilot walk of the
+    subject, speed, schedule and noise planned for is simulated first.
+
+    Parameters
+    ----------
+    simulation : GaitSimulationSettings
+        The pilot: subject (``body_mass``, ``height``), ``speed``, ``num_points``,
+        ``motor_noise``, sensor ``noise``, ``seed``, its ``duration`` (e.g.
+        :data:`PILOT_SECONDS`) and the folder ``out`` it is written to (``out/trial`` is
+        the pilot a later plan can be given).
+    target_k, record_seconds, noise_std, fit_fraction
+        As :func:`plan_record`.
+    progress : callable, optional
+        ``progress(step, detail)`` of the simulation's steps.
+
+    Returns
+    -------
+    RecordPlan
+        With ``pilot`` holding the simulation's settings.
+
+    Raises
+    ------
+    ValueError
+        On bad settings or options (before the simulation), or a pilot that fell (its
+        design does not stand for the record planned).
+    """
+    from colloc.gait.workflow import simulate_trial
+
+    simulation.validate()
+    # the plan's own options checked before minutes of simulation
+    plan_record_problems(target_k, record_seconds, noise_std, fit_fraction)
+    result = simulate_trial(simulation, progress=progress)
+    if result.fell:
+        raise ValueError(
+            f"pilot: the simulated walk fell ({result.summary.get('message')}); its design "
+            "does not stand for the record planned: plan at another speed, motor noise or "
+            "number of points"
+        )
+    plan = plan_record(
+        result.out / "trial",
+        target_k=target_k,
+        record_seconds=record_seconds,
+        noise_std=noise_std,
+        fit_fraction=fit_fraction,
+    )
+    plan.pilot |= {"simulated": simulation.to_dict()}
+    plan.notes.insert(
+        0,
+        f"pilot simulated: {simulation.duration:g} s at {simulation.speed:g} m/s, "
+        f"{simulation.body_mass:g} kg, {simulation.height:g} m, P = {simulation.num_points}, "
+        f"motor noise {simulation.motor_noise:g} N m, seed {simulation.seed} "
+        f"({result.out / 'trial'})",
+    )
+    return plan
+
+
+__all__ = [
+    "LAW_TOLERANCE",
+    "PILOT_SECONDS",
+    "PILOT_SHARES",
+    "RecordPlan",
+    "design_bounds",
+    "plan_for_subject",
+    "plan_record",
+]
