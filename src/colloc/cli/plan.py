@@ -4,6 +4,7 @@
 from __future__ import annotations
 
 import argparse
+import contextlib
 import dataclasses
 import tempfile
 import time
@@ -119,13 +120,16 @@ def run(args: argparse.Namespace) -> int:
         "noise_std": args.torque_noise,
         "fit_fraction": args.fit_fraction,
     }
-    with tempfile.TemporaryDirectory(prefix="colloc-pilot-") as scratch:
+    # a pilot simulated without --out lives in a temporary folder for the plan's time
+    scratch_needed = simulation is not None and args.out is None
+    temporary = tempfile.TemporaryDirectory(prefix="colloc-pilot-") if scratch_needed else None
+    with temporary or contextlib.nullcontext() as scratch:
         try:
             if simulation is None:
                 plan = plan_record(args.pilot, **options)
             else:
                 # the pilot is kept beside the plan when it has a folder, for plans to come
-                where = args.out / "pilot" if args.out is not None else Path(scratch) / "pilot"
+                where = args.out / "pilot" if scratch is None else Path(scratch) / "pilot"
                 simulation = dataclasses.replace(simulation, out=where)
                 print(f"simulating a {simulation.duration:g} s pilot walk -> {where}", flush=True)
                 plan = plan_for_subject(
