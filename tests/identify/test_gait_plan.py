@@ -3,6 +3,7 @@
 import json
 import shutil
 from pathlib import Path
+from types import SimpleNamespace
 
 import numpy as np
 import pytest
@@ -50,8 +51,15 @@ def test_the_design_bound_is_the_fits_bound_and_falls_as_one_over_root_length():
     assert design_bounds(gs, phase, states, 4.0, Tstar, K)[0] == pytest.approx(2 * k_bound)
 
 
+def _measured_states():
+    trial = read_trial(FIXTURE)
+    return measured_states(trial.time, trial.signals, 0.05)
+
+
 def test_the_plan_reads_the_law_off_the_whole_pilot():
-    plan = plan_record(FIXTURE, target_k=0.2, record_seconds=300.0, fit_fraction=0.75)
+    plan = plan_record(
+        FIXTURE, target_k=0.2, record_seconds=300.0, fit_fraction=0.75, states=_measured_states()
+    )
     gs, phase, states, _, Tstar, K = _design()
     whole = design_bounds(gs, phase, states, plan.noise_std, Tstar, K)[0]
     assert plan.K_bound[-1] == pytest.approx(whole, rel=1e-6)
@@ -63,15 +71,35 @@ def test_the_plan_reads_the_law_off_the_whole_pilot():
     assert any("short of where the law holds" in n for n in plan.notes)
 
 
-def test_the_command_writes_the_plan_and_refuses_what_it_cannot_plan(tmp_path, capsys):
-    out = tmp_path / "plan"
+@pytest.fixture(scope="module")
+def planned(tmp_path_factory):
+    """One command-line plan from the fixture, its states smoothed as identify smooths."""
+    out = tmp_path_factory.mktemp("plan")
     code = main(
         ["gait", "plan", str(FIXTURE), "--target-k", "0.2", "--out", str(out)]
         + ["--json", str(out / "plan.json")]
     )
+    return code, out
+
+
+def test_a_pilots_design_is_its_smoothed_states(planned):
+    """On the noise-free fixture the smoother's states are the record's: the bound the plan
+    computes from them is the one from the recorded states, to the smoother's small error
+    (and its nodes in place of the samples)."""
+    code, out = planned
     assert code == 0
-    printed = capsys.readouterr().out
-    assert "for a K bound of 20 %: fit" in printed
+    summary = json.loads((out / "plan.json").read_text())
+    assert any("as the fit's smoother gives them" in n for n in summary["notes"])
+    given = plan_record(FIXTURE, target_k=0.2, states=_measured_states())
+    assert summary["K_bound"][-1] == pytest.approx(given.K_bound[-1], rel=0.05)
+    assert summary["K_coefficient"] == pytest.approx(given.K_coefficient, rel=0.05)
+    with pytest.raises(ValueError, match=r"states: expected shape \(\d+, 18\)"):
+        plan_record(FIXTURE, target_k=0.2, states=np.zeros((3, 18)))
+
+
+def test_the_command_writes_the_plan_and_refuses_what_it_cannot_plan(planned, tmp_path, capsys):
+    code, out = planned
+    assert code == 0
     summary = json.loads((out / "plan.json").read_text())
     assert summary["target_K"] == 0.2 and summary["needed_record_seconds"] > 0
     assert (out / "bound_against_length.png").stat().st_size > 10_000
@@ -101,8 +129,15 @@ class _FakeSimulation:
         self.asked.append(settings)
         shutil.copytree(FIXTURE, settings.out / "trial")
         message = "fell at 3.1 s" if self.fell_flag else "walked"
+        trial = read_trial(FIXTURE)
+        # the simulation's own states: the fixture's noise-free record at half its rate
+        record = SimpleNamespace(times=trial.time[::2], states=_measured_states()[::2])
         return SimpleNamespace(
-            out=settings.out, fell=self.fell_flag, summary={"message": message}
+            out=settings.out,
+            fell=self.fell_flag,
+            summary={"message": message},
+            record=record,
+            trial=trial,
         )
 
 
@@ -123,12 +158,17 @@ def test_a_plan_without_a_pilot_simulates_one_for_the_subject_and_keeps_it(
     assert (asked.num_points, asked.motor_noise, asked.seed) == (20, 3.0, 4)
     assert asked.duration == 60.0 and asked.out == out / "pilot"
     summary = json.loads((out / "plan.json").read_text())
-    # the plan is the pilot's own: the same as planning from the trial it wrote
-    direct = plan_record(out / "pilot" / "trial", target_k=0.2)
+    # the plan is the pilot's own: the trial it wrote, with the simulation's states at the
+    # trial's samples as the design (interpolated from the record's)
+    trial = read_trial(FIXTURE)
+    record = _FakeSimulation()(SimpleNamespace(out=tmp_path / "again"), None).record
+    exact = np.column_stack([np.interp(trial.time, record.times, c) for c in record.states.T])
+    direct = plan_record(out / "pilot" / "trial", target_k=0.2, states=exact)
     assert summary["needed_record_seconds"] == pytest.approx(direct.needed_record_seconds)
     assert summary["pilot"]["simulated"]["speed"] == 1.1
     assert summary["pilot"]["simulated"]["seed"] == 4
     assert summary["notes"][0].startswith("pilot simulated: 60 s at 1.1 m/s, 68 kg")
+    assert summary["notes"][0].endswith("its states without sensor noise are the design")
     # without --out the pilot goes to a folder that is removed, and that is said
     assert main(["gait", "plan", "--length", "120", "--speed", "1.1"]) == 0
     assert "now removed (--out keeps it)" in capsys.readouterr().out

@@ -126,7 +126,10 @@ def run(args: argparse.Namespace) -> int:
     with temporary or contextlib.nullcontext() as scratch:
         try:
             if simulation is None:
-                plan = plan_record(args.pilot, **options)
+                print("smoothing the pilot as identify would (its design)", flush=True)
+                plan = plan_record(
+                    args.pilot, **options, progress=step_printer(time.perf_counter())
+                )
             else:
                 # the pilot is kept beside the plan when it has a folder, for plans to come
                 where = args.out / "pilot" if scratch is None else Path(scratch) / "pilot"
