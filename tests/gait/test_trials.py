@@ -244,8 +244,11 @@ class FakeDesignInfo:
     spectral_radius: float
 
 
-def fake_pipeline(monkeypatch, calls, spectral_radius=0.5, settle_error=None):
-    """Replace the expensive steps by synthetic stand-ins that log their arguments."""
+def fake_pipeline(monkeypatch, calls, spectral_radius=0.5, settle_error=None, failing=None):
+    """Replace the expensive steps by synthetic stand-ins that log their arguments.
+
+    ``settle_error`` is raised by every second settle (each P-point controller's walk after a
+    full-state one), or by the settles numbered in ``failing`` (from 1) when given."""
     from colloc.control.gain_scheduled import joint_isolated_mask
     from colloc.gait.closed_loop import ClosedLoopRecord
     from colloc.gait.walking_cycle import WalkingCycle
@@ -306,7 +309,9 @@ def fake_pipeline(monkeypatch, calls, spectral_radius=0.5, settle_error=None):
     def settle_cycle(cycle, Tstar_, K_, feedback, **kwargs):
         calls.append(("settle", feedback.tolist(), kwargs))
         # every second settle walks the trial's P-point controller (the first the full state)
-        if settle_error is not None and sum(c[0] == "settle" for c in calls) % 2 == 0:
+        number = sum(c[0] == "settle" for c in calls)
+        fails = number % 2 == 0 if failing is None else number in failing
+        if settle_error is not None and fails:
             raise settle_error
         settled = WalkingCycle(
             cycle.times, cycle.states, cycle.torques, cycle.contact_forces,
@@ -465,6 +470,29 @@ def test_a_schedule_that_falls_on_a_constant_belt_is_refused_before_the_walk(mon
     assert "a P = 20 schedule cannot hold this speed's stride" in message
     assert "--points" in message and "nothing was simulated" in message
     assert not any(c[0] == "simulate" for c in calls) and not out.exists()
+
+
+def test_a_schedule_that_falls_is_designed_on_a_finer_schedules_stride(monkeypatch, tmp_path):
+    """1.6 m/s at P = 20: designed on the full-state stride the P = 20 walker falls; the
+    P = 50 one walks, and P = 20 designed on the P = 50 walker's stride is the trial's."""
+    from colloc.gait.settle import WalkerFellError
+    from colloc.gait.workflow import ORBIT_LADDER, GaitSimulationSettings, simulate_trial
+
+    calls: list = []
+    error = WalkerFellError("settle_cycle: the closed loop did not walk 15 strides")
+    fake_pipeline(monkeypatch, calls, settle_error=error, failing={2})
+    settings = GaitSimulationSettings(duration=6.0, out=tmp_path / "out", perturbed=False)
+    result = simulate_trial(settings)
+    designs = [(c[1], c[2]["cycle"].stats.get("settled")) for c in calls if c[0] == "design"]
+    # settling (P = 200), P = 20 on the full-state stride (settle 1), P = 50 on it, P = 20 on
+    # the P = 50 walker's stride (settle 3), the trial's P = 20 on its own stride (settle 4)
+    assert ORBIT_LADDER == (50,)
+    assert designs == [(200, None), (20, 1), (50, 1), (20, 3), (20, 4)]
+    assert any("stride of the P = 50 controller's walker" in n for n in result.notes)
+    assert any(c[0] == "simulate" for c in calls) and not result.fell
+    assert "P = 20 controller designed on the stride of the P = 50" in (
+        result.cycle.stats["source"]
+    )
 
 
 def test_belt_input_from_the_measured_record():

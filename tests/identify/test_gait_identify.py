@@ -437,3 +437,26 @@ def test_the_summary_says_which_subject_and_model_constants_the_fit_used(identif
         for key, value in expected[segment].items():
             assert constants[segment][key] == pytest.approx(value), (segment, key)
     assert constants["contact"] == pytest.approx(expected["contact"])
+
+
+def test_the_mean_stride_figure_draws_each_walk_that_has_a_whole_stride():
+    from colloc.identify.gait_outputs import _mean_strides_figure
+
+    t = np.arange(0.0, 6.0, 0.01)
+    strikes = np.array([0.2, 1.3, 2.4, 3.5, 4.6, 5.7])
+    phi = np.interp(t, strikes, np.arange(strikes.size), left=np.nan, right=np.nan) % 1
+    angles = np.column_stack([np.sin(2 * np.pi * np.nan_to_num(phi)) * (j + 1) for j in range(6)])
+    walked = {"times": t, "simulated_angles": angles, "simulated_strikes": strikes}
+    fell = {"times": t[:30], "simulated_angles": angles[:30], "simulated_strikes": strikes[:1]}
+    validation = {
+        "held_out": {"times": t, "angles": angles, "strikes": strikes},
+        "walk_signals": {"collocation": walked, "direct": fell, "truth": walked},
+    }
+    fig = _mean_strides_figure(validation)
+    first = fig.axes[0]
+    labels = [line.get_label() for line in first.get_lines()]
+    assert labels == ["record", "identified controller's walk", "true controller's walk"]
+    # each drawn walk is the record's mean stride here (the same signal)
+    record_mean, walk_mean = (first.get_lines()[k].get_ydata() for k in (0, 1))
+    np.testing.assert_allclose(walk_mean, record_mean)
+    assert "not drawn: direct fit's walk" in fig._suptitle.get_text()

@@ -33,7 +33,7 @@ import shutil
 import time
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
@@ -106,6 +106,13 @@ SETTLE_POINTS = 200
 #: strides, and the controller designed on its last stride fell 1.2 s into the perturbed belt,
 #: where the one designed on the full-state stride walked 120 s.
 ORBIT_TOLERANCE = DEFAULT_SETTLE_TOLERANCE
+
+#: Schedule points whose walker's stride a coarser schedule is designed on when the coarser
+#: one, designed on the full-state stride, falls on a constant belt (:func:`_schedule_orbit`).
+#: At 1.6 m/s (160-node cycle) the P = 20 controller designed on the full-state stride fell
+#: at 1.24 s; the P = 50 one walked and settled, and P = 20 designed on the P = 50 walker's
+#: stride settled too (P = 35 between them had not settled after 16 strides).
+ORBIT_LADDER: tuple[int, ...] = (50,)
 
 
 class UnstableControllerError(ValueError):
@@ -250,6 +257,13 @@ def _settled_cycle(
         with clock.step("orbit", f"the stride the P = {settings.num_points} controller walks"):
             try:
                 settled = _schedule_orbit(settled, settings, dynamics)
+                if settled.stats.get("via_points"):
+                    notes.append(
+                        f"the P = {settings.num_points} controller designed on the full-state "
+                        "stride fell on a constant belt; it was designed on the stride of the "
+                        f"P = {settled.stats['via_points'][-1]} controller's walker instead "
+                        "(a continuation in the number of schedule points)"
+                    )
             except WalkerFellError as error:
                 # a trial under this controller falls at once: say so before the perturbed walk
                 failures.append(
@@ -310,11 +324,41 @@ def _schedule_orbit(
     with P = 20 and 3 N m of motor noise on the perturbed belt: designed on the full-state
     settled stride, 1.25 m/s seed 47 fell at 13.3 s and 0.8 m/s seed 1 at 7.7 s; designed
     on this stride, both walked 480 s.
+
+    Where the ``P``-point controller designed on the full-state stride falls on the constant
+    belt, that stride is too far from its own: the finer schedules of :data:`ORBIT_LADDER`
+    walk first, each designed on the stride of the one before, and ``P`` on the last one's
+    (a continuation in the number of points). When that fails too the first fall is raised.
     """
-    _, tstar, gains, info = _trial_design(settled, settings, dynamics)
+    try:
+        return _orbit_under(settled, settings, dynamics, "the full-state settled stride")
+    except WalkerFellError as fell:
+        first = fell
+    current, via = settled, []
+    try:
+        for points in (p for p in ORBIT_LADDER if p > settings.num_points):
+            finer = replace(settings, num_points=points)
+            current = _orbit_under(current, finer, dynamics, "the stride before")
+            via.append(points)
+        if not via:
+            raise first
+        orbit = _orbit_under(
+            current, settings, dynamics, f"the stride of the P = {via[-1]} controller's walker"
+        )
+    except (CycleNotSettledError, UnstableControllerError):
+        raise first from None
+    orbit.stats = {**orbit.stats, "via_points": via}
+    return orbit
+
+
+def _orbit_under(
+    cycle: WalkingCycle, settings: GaitSimulationSettings, dynamics: GaitDynamics, on: str
+) -> WalkingCycle:
+    """The stride ``settings``' ``P``-point controller, designed on ``cycle``, settles to."""
+    _, tstar, gains, info = _trial_design(cycle, settings, dynamics)
     check_stable(info.spectral_radius, settings)
     orbit = settle_cycle(
-        settled,
+        cycle,
         tstar,
         gains,
         FEEDBACK_SETS[settings.feedback],
@@ -325,7 +369,7 @@ def _schedule_orbit(
         **orbit.stats,
         "source": (
             f"closed-loop simulation settled on a constant belt under the P = "
-            f"{settings.num_points} controller designed on the full-state settled stride"
+            f"{settings.num_points} controller designed on {on}"
         ),
     }
     return orbit

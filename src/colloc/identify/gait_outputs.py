@@ -275,6 +275,14 @@ def save_gait_plots(
     return paths
 
 
+#: How the held-out walks are named in the mean-stride figure.
+WALK_LABELS = {
+    "collocation": "identified controller's walk",
+    "direct": "direct fit's walk",
+    "truth": "true controller's walk",
+}
+
+
 def _mean_strides_figure(validation: dict[str, Any]) -> Any:
     """The held-out walks' mean strides over the gait cycle against the record's strides."""
     from colloc.data.phase import phase_normalised
@@ -283,16 +291,20 @@ def _mean_strides_figure(validation: dict[str, Any]) -> Any:
     held_out = validation["held_out"]
     # the record's strides over the whole held-out part, each walk's over what it walked
     phase, record, _ = phase_normalised(held_out["times"], held_out["angles"], held_out["strikes"])
-    walks = {}
+    walks, short = {}, []
     for name, w in validation["walk_signals"].items():
-        label = "identified" if name == "collocation" else name
-        walks[f"{label} walk"] = phase_normalised(
+        label = WALK_LABELS.get(name, name)
+        mean = phase_normalised(
             w["times"] - w["times"][0], w["simulated_angles"], w["simulated_strikes"]
         )[2]
-    return plot_mean_strides(
-        phase, record, walks, JOINT_NAMES,
-        "held-out part over the gait cycle: the record's strides and each walk's mean stride",
-    )  # fmt: skip
+        if np.isnan(mean).all():
+            short.append(label)  # fell before a whole stride: no mean stride to draw
+        else:
+            walks[label] = mean
+    title = "held-out part over the gait cycle: the record's strides and each walk's mean stride"
+    if short:
+        title += f"\n(no whole stride, not drawn: {', '.join(short)})"
+    return plot_mean_strides(phase, record, walks, JOINT_NAMES, title)
 
 
 def _own_gains(
