@@ -64,11 +64,33 @@ def test_the_plan_reads_the_law_off_the_whole_pilot():
     whole = design_bounds(gs, phase, states, plan.noise_std, Tstar, K)[0]
     assert plan.K_bound[-1] == pytest.approx(whole, rel=1e-6)
     assert plan.K_coefficient == pytest.approx(whole * np.sqrt(plan.fitted_seconds[-1]))
+    # beyond the 14 s pilot: the law
     assert plan.K_coefficient / np.sqrt(plan.needed_fit_seconds) == pytest.approx(0.2)
     assert plan.needed_record_seconds == pytest.approx(plan.needed_fit_seconds / 0.75)
     assert plan.K_bound_at_length == pytest.approx(plan.K_coefficient / np.sqrt(225.0))
-    # a 14 s pilot is far too short for the law: the plan says so
-    assert any("short of where the law holds" in n for n in plan.notes)
+    assert any("beyond the pilot's 14 s: from the 1/sqrt(length) law" in n for n in plan.notes)
+    # a 14 s pilot is far from the law over its shorter parts: said once, with the direction
+    (said,) = [n for n in plan.notes if "times the 1/sqrt(length) law's" in n]
+    assert "fell faster than the law" in said and "errs long" in said
+
+
+def test_within_the_pilot_the_plan_computes_the_bound_on_its_first_seconds():
+    gs, phase, states, _, Tstar, K = _design()
+    trial = read_trial(FIXTURE)
+    t = trial.time[np.isfinite(gait_phase("causal", trial, trial.time, trial.signals))]
+    plan = plan_record(FIXTURE, target_k=1.0, record_seconds=16.0, states=_measured_states())
+    needed = plan.needed_fit_seconds
+    assert plan.fitted_seconds[-2] < needed < plan.fitted_seconds[-1]
+    assert any("within the pilot: computed on its own first seconds" in n for n in plan.notes)
+
+    def bound(fitted):  # the design of the first `fitted` seconds, built here on its own
+        rows = t <= t[0] + fitted + 1e-9
+        return design_bounds(gs, phase[rows], states[rows], plan.noise_std, Tstar, K)[0]
+
+    # the shortest such length: the target met there, not a twentieth of a second before
+    assert bound(needed) <= 1.0 < bound(needed - 0.05)
+    # a length within the pilot: its own bound, not the law's
+    assert plan.K_bound_at_length == pytest.approx(bound(12.0), rel=1e-9)
 
 
 @pytest.fixture(scope="module")

@@ -261,48 +261,76 @@ def plan_record(
     # the causal phase starts at the first right heel strike
     known = np.isfinite(phase)
     first = times[known][0]
-    span = times[known][-1] - first
-    lengths, k_bounds, t_bounds = [], [], []
-    for share in PILOT_SHARES:
-        rows = known & (times <= first + share * span + 1e-9)
+    span = float(times[known][-1] - first)
+
+    def bound_at(fitted: float) -> tuple[float, float] | None:
+        """K and T* bounds of the pilot's first ``fitted`` seconds; None if undetermined."""
+        rows = known & (times <= first + fitted + 1e-9)
         try:
             k, t = design_bounds(controller, phase[rows], states[rows], noise_std, Tstar, K)
         except np.linalg.LinAlgError:
-            continue  # too short a part to determine the schedule
-        if not (np.isfinite(k) and np.isfinite(t)):
-            continue
-        lengths.append(share * span)
-        k_bounds.append(k)
-        t_bounds.append(t)
+            return None  # too short a part to determine the schedule
+        return (k, t) if np.isfinite(k) and np.isfinite(t) else None
+
+    lengths, k_bounds, t_bounds = [], [], []
+    for share in PILOT_SHARES:
+        bounds = bound_at(share * span)
+        if bounds is not None:
+            lengths.append(share * span)
+            k_bounds.append(bounds[0])
+            t_bounds.append(bounds[1])
     if not lengths:
         raise ValueError(
             f"pilot: its {span:.1f} s do not determine the P = {data.points} schedule; "
             "simulate a longer pilot"
         )
-    # the law from the whole pilot, whose design is the best determined; the shorter parts
-    # say whether the pilot is long enough for the law to hold
+    # the law from the whole pilot, whose design is the best determined, for lengths beyond
+    # it; within the pilot the bound is computed on its own first seconds. The shorter parts
+    # say how far the law is from the bound there.
     k_c = float(k_bounds[-1] * np.sqrt(lengths[-1]))
     t_c = float(t_bounds[-1] * np.sqrt(lengths[-1]))
-    for length, bound in zip(lengths[:-1], k_bounds[:-1], strict=True):
-        law = k_c / np.sqrt(length)
-        if abs(bound / law - 1.0) > LAW_TOLERANCE:
-            notes.append(
-                f"the bound on {length:.0f} s of the pilot is {bound:.3g}, {bound / law:.2f} "
-                f"times the 1/sqrt(length) law's {law:.3g}: the pilot is short of where the "
-                "law holds, so a longer record than planned may be needed; plan from a longer "
-                "pilot"
-            )
+    ratios = [
+        (length, bound / (k_c / np.sqrt(length)))
+        for length, bound in zip(lengths[:-1], k_bounds[:-1], strict=True)
+    ]
+    off = [(length, ratio) for length, ratio in ratios if abs(ratio - 1.0) > LAW_TOLERANCE]
+    if off:
+        errs = (
+            "the bound fell faster than the law over the pilot, so beyond it the law likely "
+            "errs long"
+            if off[-1][1] > 1.0
+            else "the bound fell slower than the law over the pilot, so beyond it a longer "
+            "record than planned may be needed"
+        )
+        notes.append(
+            f"the bound on the pilot's first {', '.join(f'{L:.0f}' for L, _ in off)} s is "
+            f"{', '.join(f'{r:.3g}' for _, r in off)} times the 1/sqrt(length) law's: {errs}; "
+            "plan from a longer pilot"
+        )
     plan = RecordPlan(
         np.asarray(lengths), np.asarray(k_bounds), np.asarray(t_bounds), k_c, t_c,
         float(noise_std), float(fit_fraction), pilot={"trial": str(pilot)}, notes=notes,
     )  # fmt: skip
     if target_k is not None:
         plan.target_K = float(target_k)
-        plan.needed_fit_seconds = (k_c / target_k) ** 2
+        if k_bounds[-1] > target_k:
+            plan.needed_fit_seconds = (k_c / target_k) ** 2
+            notes.append(
+                f"the length for a K bound of {target_k:g} is beyond the pilot's {span:.0f} s: "
+                "from the 1/sqrt(length) law"
+            )
+        else:
+            plan.needed_fit_seconds = _within_pilot(bound_at, lengths, k_bounds, target_k)
+            notes.append(
+                f"the length for a K bound of {target_k:g} is within the pilot: computed on its "
+                "own first seconds"
+            )
         plan.needed_record_seconds = plan.needed_fit_seconds / fit_fraction
     if record_seconds is not None:
         plan.record_seconds = float(record_seconds)
-        plan.K_bound_at_length = k_c / np.sqrt(record_seconds * fit_fraction)
+        fitted = record_seconds * fit_fraction
+        inside = bound_at(fitted) if fitted <= span else None
+        plan.K_bound_at_length = k_c / np.sqrt(fitted) if inside is None else inside[0]
     return plan
 
 
@@ -339,6 +367,25 @@ def smoothed_states(
     pieces = [result.at_dynamics() for result in smooth_windows(jobs, progress)]
     return np.concatenate([p[0] for p in pieces]), np.concatenate([p[1] for p in pieces])
 
+
+def _within_pilot(bound_at: Any, lengths: list[float], bounds: list[float], target: float) -> float:
+    """The fitted length within the pilot whose K bound is ``target``, by bisection between
+    the computed lengths that bracket it (the bound falls with the length)."""
+    above = [(L, b) for L, b in zip(lengths, bounds, strict=True) if b > target]
+    hi = min(L for L, b in zip(lengths, bounds, strict=True) if b <= target)
+    lo = max((L for L, _ in above if L < hi), default=hi / 4)
+    for _ in range(BISECTIONS):
+        mid = 0.5 * (lo + hi)
+        bounds_mid = bound_at(mid)
+        if bounds_mid is None or bounds_mid[0] > target:
+            lo = mid
+        else:
+            hi = mid
+    return float(hi)
+
+
+#: Halvings of the bracket of :func:`_within_pilot` (to 1/4096 of the bracket).
+BISECTIONS = 12
 
 #: Seconds of the pilot walk :func:`plan_for_subject` simulates by default: long enough for the
 #: bound's 1/sqrt(length) law on 1/2 to all of it at P = 20 (docs/gait-guide.md).
