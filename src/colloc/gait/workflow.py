@@ -292,7 +292,7 @@ def _settled_cycle(
         hint += (
             f"; a P = {settings.num_points} schedule cannot hold this speed's stride, so "
             "nothing was simulated: try more schedule points (--points) or a slower speed "
-            "(docs/gait.md: synthetic walks lasted 480 s at 0.8-1.4 m/s with 3 N m)"
+            "(docs/gait.md: synthetic walks lasted 480 s at 0.8-1.6 m/s with 3 N m)"
         )
     # the kind of the last failure (an unstable design stays a ValueError for the CLI)
     raise type(last)(f"{'; '.join(failures)}; {hint}") from last
