@@ -499,7 +499,9 @@ def test_a_long_gait_simulation_is_announced_with_an_estimate(tmp_path, monkeypa
 
 def test_runs_list_shows_each_kind_in_its_own_columns(tmp_path, capsys):
     """Gait runs were shown in the pendulum's columns (num_links NaN, a max_rel_error of
-    62206 from gains near zero)."""
+    62206 from gains near zero); the gait columns were then keyed by a kind no run has
+    ("gait", where gait identify stores "gait-identify"), so real gait runs still were."""
+    from colloc.identify.gait_outputs import KIND
     from colloc.store import ParameterRow, RunRecord, RunStore
 
     db = f"sqlite:///{tmp_path / 'runs.db'}"
@@ -513,8 +515,11 @@ def test_runs_list_shows_each_kind_in_its_own_columns(tmp_path, capsys):
         )  # fmt: skip
         store.add(
             RunRecord(
-                "g1", "gait", {"trial": "trials/a", "method": "smoother", "points": 20}, {},
-                statistics={"success": True, "K_relative_error": 0.31, "validation": {"walks": True}},
+                "g1", KIND, {"trial": "trials/a", "method": "smoother", "points": None}, {},
+                statistics={
+                    "points": 20, "success": True, "K_relative_error": 0.31,
+                    "validation": {"walks": True},
+                },
                 parameters=[ParameterRow("K[0][hip][x]", 1e-9, 6.2e-5, 1.0)],
             )
         )  # fmt: skip
@@ -527,9 +532,14 @@ def test_runs_list_shows_each_kind_in_its_own_columns(tmp_path, capsys):
         and "max_rel_error" in pendulum
     )
     assert (
-        gait.startswith("gait runs:") and "K_relative_error" in gait and "validation.walks" in gait
+        gait.startswith(f"{KIND} runs:")
+        and "K_relative_error" in gait
+        and "validation.walks" in gait
     )
     assert "num_links" not in gait and "max_rel_error" not in gait
+    # the schedule points the fit used, which the settings leave to the trial
+    _, header, row = gait.split("\n")[:3]
+    assert "points" in header.split() and "20" in row.split()
     # nor the relative error over a gain near zero ((6.2e-5 - 1e-9) / 1e-9 = 61999), in any
     # format (the row's timestamp may hold any digits, so no bare "62")
     row = gait.split("\n")[2]

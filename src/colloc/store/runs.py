@@ -49,9 +49,10 @@ DEFAULT_STATISTIC_COLUMNS = ("success", "iterations", "objective", "solve_time")
 #: near zero, whose relative errors are meaningless; its own summary errors are shown instead.
 KIND_COLUMNS: dict[str, tuple[tuple[str, ...], tuple[str, ...], bool]] = {
     "pendulum": (DEFAULT_SETTING_COLUMNS, DEFAULT_STATISTIC_COLUMNS, True),
-    "gait": (
-        ("trial", "method", "points", "fit_fraction"),
+    "gait-identify": (
+        ("trial", "method", "fit_fraction"),
         (
+            "points",  # the schedule points used (the setting is often left to the trial)
             "success",
             "iterations",
             "K_relative_error",
