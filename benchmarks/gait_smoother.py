@@ -56,7 +56,7 @@ def one_case(
         load_parameters(float(meta.get("body_mass", 75.0)), float(meta.get("height", 1.8)))
     )
     setup = time.perf_counter() - clock
-    from colloc.identify.gait_smoother import SmootherSettings
+    from colloc.identify.gait_smoother_settings import SmootherSettings
     from colloc.transcription import Midpoint, Trapezoidal
 
     settings = SmootherSettings(scheme={"midpoint": Midpoint, "trapezoidal": Trapezoidal}[scheme]())

@@ -14,13 +14,10 @@ import pytest
 
 from colloc.data.columns import JOINT_ANGLE_COLUMNS, TORQUE_COLUMNS, TRUNK_COLUMNS
 from colloc.data.trial import read_trial
-from colloc.identify.gait_smoother import (
-    GaitSmoother,
-    SmootherError,
-    SmootherSettings,
-    SmootherStage,
-    lowpass,
-)
+from colloc.identify.gait_smoother import GaitSmoother
+from colloc.identify.gait_smoother_results import SmootherError, SmootherStage
+from colloc.identify.gait_smoother_settings import SmootherSettings
+from colloc.identify.gait_smoother_start import lowpass
 
 FIXTURE = Path(__file__).parent / "data" / "gait_trial_p20"
 POSITIONS = list(TRUNK_COLUMNS + JOINT_ANGLE_COLUMNS)

@@ -14,12 +14,12 @@ _EXPORTS = {
     "fit_gain_schedule": "colloc.identify.direct",
     "smooth_with_derivatives": "colloc.identify.direct",
     "GaitSmoother": "colloc.identify.gait_smoother",
-    "SmoothedGait": "colloc.identify.gait_smoother",
-    "SmootherError": "colloc.identify.gait_smoother",
-    "SmootherSettings": "colloc.identify.gait_smoother",
-    "SmootherStage": "colloc.identify.gait_smoother",
-    "consistent_completion": "colloc.identify.gait_smoother",
-    "lowpass": "colloc.identify.gait_smoother",
+    "SmoothedGait": "colloc.identify.gait_smoother_results",
+    "SmootherError": "colloc.identify.gait_smoother_results",
+    "SmootherSettings": "colloc.identify.gait_smoother_settings",
+    "SmootherStage": "colloc.identify.gait_smoother_results",
+    "consistent_completion": "colloc.identify.gait_smoother_start",
+    "lowpass": "colloc.identify.gait_smoother_start",
     "GAIN_GUESSES": "colloc.identify.guesses",
     "SCHEMES": "colloc.identify.pendulum",
     "PendulumRun": "colloc.identify.pendulum",
@@ -37,15 +37,10 @@ if TYPE_CHECKING:  # for type checkers; re-exported through __all__
         fit_gain_schedule,
         smooth_with_derivatives,
     )
-    from colloc.identify.gait_smoother import (
-        GaitSmoother,
-        SmoothedGait,
-        SmootherError,
-        SmootherSettings,
-        SmootherStage,
-        consistent_completion,
-        lowpass,
-    )
+    from colloc.identify.gait_smoother import GaitSmoother
+    from colloc.identify.gait_smoother_results import SmoothedGait, SmootherError, SmootherStage
+    from colloc.identify.gait_smoother_settings import SmootherSettings
+    from colloc.identify.gait_smoother_start import consistent_completion, lowpass
     from colloc.identify.guesses import GAIN_GUESSES
     from colloc.identify.pendulum import SCHEMES, PendulumRun, run_pendulum
     from colloc.identify.pendulum_settings import SCHEME_NAMES, PendulumSettings

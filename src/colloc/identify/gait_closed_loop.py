@@ -89,7 +89,7 @@ def _problem(
     """The collocation problem; its tracking weights are ``1 / (sigma^2 N)``."""
     from sympy.physics.mechanics import dynamicsymbols
 
-    from colloc.identify.gait_smoother import trial_noise_std
+    from colloc.identify.gait_trial_noise import trial_noise_std
     from colloc.model.symbols import name_of
     from colloc.nlp.objective import Tracking
     from colloc.nlp.problem import Problem

@@ -124,7 +124,7 @@ def fit_schedule_with_errors(
         them: signals free of an error that lagged ``feedback`` shares with ``feedback`` make
         the fit consistent where lagged ``feedback`` would not (the smoother's node rates and
         the midpoint rule's odd-even mode:
-        :meth:`colloc.identify.gait_smoother.SmoothedGait.instrument_states`).
+        :meth:`colloc.identify.gait_smoother_results.SmoothedGait.instrument_states`).
 
     Returns
     -------

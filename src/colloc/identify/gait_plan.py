@@ -34,7 +34,7 @@ from colloc.identify.gait_read import (
     state_names,
 )
 from colloc.identify.gait_settings import GaitIdentifySettings
-from colloc.identify.gait_smoother import torque_equation_noise, trial_noise_std
+from colloc.identify.gait_trial_noise import torque_equation_noise, trial_noise_std
 
 if TYPE_CHECKING:
     from colloc.gait.workflow import Progress

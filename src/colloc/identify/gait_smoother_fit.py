@@ -33,7 +33,7 @@ def smoother_fit(c: FitContext) -> Fit:
     the interval midpoints), with stride-sandwich errors and the bound of the design
     (:mod:`colloc.identify.gait_controller_fit`)."""
     from colloc.identify.gait_controller_fit import fit_schedule_with_errors, instruments_pay
-    from colloc.identify.gait_smoother import torque_equation_noise
+    from colloc.identify.gait_trial_noise import torque_equation_noise
     from colloc.identify.gait_windows import smooth_windows
 
     settings, data, gs = c.settings, c.data, c.gs
@@ -140,7 +140,7 @@ def _signals(
     result: Any, instrumented: bool
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """A window's times, states, torques and the states its instruments lag: the nodes
-    (:meth:`~colloc.identify.gait_smoother.SmoothedGait.instrument_states` for the
+    (:meth:`~colloc.identify.gait_smoother_results.SmoothedGait.instrument_states` for the
     instruments) for the instrumented fit, else where the scheme holds the dynamics."""
     if instrumented:
         return result.times, result.states, result.torques, result.instrument_states()

@@ -21,7 +21,9 @@ from colloc.data.split import stride_windows, take_rows
 from colloc.data.trial import Trial
 from colloc.identify.gait_read import subject
 from colloc.identify.gait_settings import GaitIdentifySettings
-from colloc.identify.gait_smoother import GaitSmoother, SmoothedGait, SmootherSettings
+from colloc.identify.gait_smoother import GaitSmoother
+from colloc.identify.gait_smoother_results import SmoothedGait
+from colloc.identify.gait_smoother_settings import SmootherSettings
 
 Progress = Callable[[str, str], None]
 #: ``map_windows(function, jobs) -> results`` in the jobs' order.

@@ -1,0 +1,160 @@
+"""What the gait smoother reports: each stage, its failure, and the smoothed record."""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from colloc.transcription.base import Scheme
+
+
+@dataclass(frozen=True)
+class SmootherStage:
+    """What one stage of the smoother did.
+
+    Attributes
+    ----------
+    name : str
+        ``start``, ``backward-euler``, the second-order scheme's name (``midpoint``,
+        ``trapezoidal``) or ``continuation``.
+    scheme : str
+        The collocation scheme's class name.
+    friction_velocity : float
+        The contact's slip scale in this stage [m/s].
+    status : str
+        IPOPT's status (``Consistent`` for the start).
+    success : bool
+    iterations : int
+    seconds : float
+    objective, max_defect : float
+        At the stage's end.
+    """
+
+    name: str
+    scheme: str
+    friction_velocity: float
+    status: str
+    success: bool
+    iterations: int
+    seconds: float
+    objective: float
+    max_defect: float
+
+    def describe(self) -> str:
+        """One line for progress reports and notes."""
+        return (
+            f"{self.name} ({self.scheme}, v_s = {self.friction_velocity:g} m/s): "
+            f"{self.status}, {self.iterations} iterations, {self.seconds:.1f} s, "
+            f"max defect {self.max_defect:.1e}"
+        )
+
+
+class SmootherError(RuntimeError):
+    """A smoother stage did not converge; the message names it and the stages before it."""
+
+    def __init__(self, message: str, stages: Sequence[SmootherStage]) -> None:
+        super().__init__(message)
+        self.stages = tuple(stages)
+
+
+@dataclass
+class SmoothedGait:
+    """The smoother's result on the grid of the measurements.
+
+    Attributes
+    ----------
+    times : ndarray, shape (N,)
+    states : ndarray, shape (N, 18)
+        ``[q, u]`` in the order of :data:`colloc.gait.metadata.STATE_SIGNAL_NAMES`.
+    torques : ndarray, shape (N, 6)
+        Joint torques, in the order of :data:`colloc.data.columns.TORQUE_COLUMNS`.
+    residuals : ndarray, shape (N, 3)
+        Residual forces on the trunk's x [N], y [N] and angle [N m].
+    stages : list of SmootherStage
+    problem : Problem or None
+        The last stage's problem (midpoint at the model's contact); None in a copy sent to
+        another process (a CasADi problem does not travel; everything else does).
+    z : ndarray
+        Its free vector at the solution.
+    notes : list of str
+        Anything the caller should know about the result.
+    scheme : Scheme or None
+        The last stage's scheme.
+    size : dict
+        The last stage's problem's size (:attr:`colloc.Problem.size`).
+    seconds : float
+        Wall time of :meth:`GaitSmoother.run`, the problems' builds included (the stages'
+        ``seconds`` count their solves only).
+    process : str
+        ``host:pid`` of the process that ran it (which worker, when windows are spread).
+    tracking : dict
+        What the smoother tracked and with which noise levels (the marker smoother's
+        markers, their places in their segments, the plates).
+    """
+
+    times: np.ndarray
+    states: np.ndarray
+    torques: np.ndarray
+    residuals: np.ndarray
+    stages: list[SmootherStage]
+    problem: Any
+    z: np.ndarray
+    notes: list[str] = field(default_factory=list)
+    scheme: Scheme | None = None
+    size: dict[str, int] = field(default_factory=dict)
+    seconds: float = float("nan")
+    process: str = ""
+    tracking: dict[str, Any] = field(default_factory=dict)
+
+    def __getstate__(self) -> dict[str, Any]:
+        state = dict(self.__dict__)
+        state["problem"] = None  # CasADi functions do not pickle
+        return state
+
+    def _last_scheme(self) -> Scheme:
+        """The last stage's scheme (a result made before ``scheme`` was kept reads its
+        problem's)."""
+        return self.scheme if self.scheme is not None else self.problem.scheme
+
+    def at_intervals(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Times, states and torques at the interval midpoints (averages of neighbouring
+        nodes, which cancel the midpoint rule's odd-even mode in the node rates)."""
+        mid = 0.5 * (self.times[1:] + self.times[:-1])
+        return (
+            mid,
+            0.5 * (self.states[1:] + self.states[:-1]),
+            0.5 * (self.torques[1:] + self.torques[:-1]),
+        )
+
+    def at_dynamics(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Times, states and torques where the last stage's scheme holds the dynamics: the
+        nodes for a scheme whose nodes satisfy them (trapezoidal, Hermite-Simpson, Radau IIA),
+        else the interval midpoints (:meth:`at_intervals`; the midpoint rule)."""
+        if self._last_scheme().dynamics_at_nodes:
+            return self.times, self.states, self.torques
+        return self.at_intervals()
+
+    def instrument_states(self) -> np.ndarray:
+        """The node states for instruments: each speed replaced by its mean over the interval
+        that ends at the node where the scheme holds the dynamics between nodes.
+
+        Under the midpoint rule only those means are tied to the positions
+        (``(u_(k-1) + u_k) / 2 = (q_k - q_(k-1)) / h``); the node speeds also carry the
+        rule's odd-even mode, which costs the light foot almost no torque and so reaches
+        0.3-0.6 rad/s in the ankle rates. A node speed lagged one or two samples shares that
+        mode with the node speed it instruments; the interval mean does not (docs/gait.md,
+        the 8-minute trial). The first node keeps its own speeds.
+
+        Returns
+        -------
+        ndarray, shape (N, 18)
+        """
+        out = self.states.copy()
+        if self._last_scheme().dynamics_at_nodes or out.shape[0] < 2:
+            return out
+        speeds = slice(out.shape[1] // 2, None)
+        out[1:, speeds] = 0.5 * (self.states[1:, speeds] + self.states[:-1, speeds])
+        return out
