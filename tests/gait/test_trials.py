@@ -490,8 +490,8 @@ def test_a_schedule_that_falls_is_designed_on_a_finer_schedules_stride(monkeypat
     assert designs == [(200, None), (20, 1), (50, 1), (20, 3), (20, 4)]
     assert any("stride of the P = 50 controller's walker" in n for n in result.notes)
     assert any(c[0] == "simulate" for c in calls) and not result.fell
-    assert "P = 20 controller designed on the stride of the P = 50" in (
-        result.cycle.stats["source"]
+    assert (
+        "P = 20 controller designed on the stride of the P = 50" in (result.cycle.stats["source"])
     )
 
 
