@@ -15,7 +15,7 @@ import sympy as sm
 from sympy.physics.mechanics import dynamicsymbols
 
 from colloc import Model, Problem, Tracking, parameter_uncertainty
-from colloc.nlp.uncertainty import influence_trace
+from colloc.nlp.influence import influence_trace
 
 t = dynamicsymbols._t
 x, w = dynamicsymbols("x w")

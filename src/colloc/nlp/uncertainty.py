@@ -26,15 +26,21 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 import scipy.sparse as sp
-import scipy.sparse.linalg as spla
 import sympy as sm
 
 from colloc.model.symbols import name_of
 from colloc.nlp.autocorrelated import autoregressive_covariance, autoregressive_obstacle
+from colloc.nlp.influence import effective_variance
 from colloc.nlp.kkt import ReducedKKT
 from colloc.nlp.residuals import SignalResiduals
+from colloc.nlp.sandwich_blocks import (
+    block_gradients,
+    check_blocks_per_parameter,
+    trial_block_starts,
+)
 from colloc.nlp.scores import per_sample, signal_slopes, trial_residuals
 from colloc.nlp.trials import Trials, TrialsSolution, as_trials
+from colloc.nlp.uncertainty_choice import choose_method
 
 if TYPE_CHECKING:
     from colloc.nlp.problem import Problem
@@ -43,9 +49,6 @@ if TYPE_CHECKING:
 
 #: The methods of :func:`parameter_uncertainty`.
 METHODS = ("auto", "kkt", "sandwich", "autoregressive")
-
-#: Fewest nodes for ``method="auto"`` to take the sandwich (five blocks of five nodes).
-AUTO_SANDWICH_MIN_NODES = 25
 
 
 @dataclass(frozen=True)
@@ -166,7 +169,7 @@ def parameter_uncertainty(
         ``"auto"`` (default) chooses, and says why in ``reason``: the KKT form when the noise
         is modelled (``process_noise`` or ``measured_inputs``) and the tracked residuals are
         white (lag-1 autocorrelation within ``3 / sqrt(n)``), or with ``per_output``, or with
-        fewer than :data:`AUTO_SANDWICH_MIN_NODES` nodes; otherwise the autoregressive
+        fewer than :data:`~colloc.nlp.uncertainty_choice.AUTO_SANDWICH_MIN_NODES` nodes; otherwise the autoregressive
         errors where the sampling allows them and ``blocks`` is not given, else the sandwich
         over blocks. On the gallery's problems the KKT errors of a fit without a noise model
         were 3-12 times too small (20-57 % of the parameters within 3 SE); on four trials of
@@ -259,7 +262,7 @@ def _uncertainty(
     residuals, owners = trial_residuals(design, solution.z) if needed else (None, [])
     if method == "auto":
         assert residuals is not None
-        method, reason = _choose_method(design, residuals, owners, per_output, blocks)
+        method, reason = choose_method(design, residuals, owners, per_output, blocks)
     if method == "autoregressive" and asked:
         # (auto has checked it before choosing it)
         assert residuals is not None
@@ -272,9 +275,9 @@ def _uncertainty(
         if per_output:
             raise ValueError("per_output: only for method='kkt' (the autoregression needs none)")
     nlp = design.nlp
-    starts = _trial_block_starts(blocks, design) if method == "sandwich" else None
+    starts = trial_block_starts(blocks, design) if method == "sandwich" else None
     if starts is not None:
-        _check_blocks_per_parameter(design, starts)
+        check_blocks_per_parameter(design, starts)
     if num_measurements is None:
         num_measurements = count_measurements(design)
     n, m = nlp.n, nlp.m
@@ -299,7 +302,7 @@ def _uncertainty(
         # degrees of freedom than they count, so the noise is read from the tracked
         # residuals over their effective degrees of freedom
         assert residuals is not None
-        sigma2, effective, dof = _effective_variance(design, solution.z, hessian, residuals, slopes)
+        sigma2, effective, dof = effective_variance(design, solution.z, hessian, residuals, slopes)
     if method == "autoregressive":
         assert residuals is not None
         try:
@@ -313,8 +316,8 @@ def _uncertainty(
                     "method='sandwich'"
                 ) from exc
             reason = f"{reason}; but {exc}, so the sandwich over time blocks instead"
-            starts = _trial_block_starts(blocks, design)
-            _check_blocks_per_parameter(design, starts)
+            starts = trial_block_starts(blocks, design)
+            check_blocks_per_parameter(design, starts)
         else:
             cov += _prior_share(design, kkt, residuals, slopes, sigma2)
             result = _result(design, cov, sigma2, dof, "autoregressive", None, reason, effective)
@@ -333,7 +336,7 @@ def _uncertainty(
         )
     if per_output:
         raise ValueError("per_output: only for method='kkt' (the sandwich needs no variances)")
-    G = _block_gradients(design, solution.z, starts)
+    G = block_gradients(design, solution.z, starts)
     assert residuals is not None  # computed above for the sandwich
     first = np.concatenate([[0], np.cumsum([s.size for s in starts])])
     nb = int(first[-1])
@@ -380,62 +383,6 @@ def _prior_share(
         Y = kkt.parameter_rows(per_sample(rows, slope * root[:, None], design.nlp.n))
         cov += Y @ Y.T
     return cov
-
-
-def _choose_method(
-    design: Trials,
-    residuals: Sequence[SignalResiduals],
-    owners: Sequence[int],
-    per_output: bool,
-    blocks: int | Sequence[int] | Sequence[Sequence[int]] | None = None,
-) -> tuple[str, str]:
-    """``method="auto"``: the method, and why, from the residuals at the solution."""
-    if per_output:
-        return "kkt", "per_output=True is a form of the KKT covariance"
-    modelled = sorted({r.kind for r in residuals if r.kind != "tracking"})
-    N = design.num_nodes
-    if modelled:
-        # the worst signal against its own trial's limit 3 / sqrt(N_i)
-        worst, limit = 0.0, 3.0 / np.sqrt(design.problems[0].layout.num_nodes)
-        for signal, owner in zip(residuals, owners, strict=True):
-            r = signal.residuals[signal.weights > 0]
-            if signal.kind == "tracking" and r.size > 2 and np.std(r) > 0:
-                value = abs(float(np.corrcoef(r[1:], r[:-1])[0, 1]))
-                own = 3.0 / np.sqrt(design.problems[owner].layout.num_nodes)
-                if value / own > worst / limit:
-                    worst, limit = value, own
-        if worst <= limit:
-            return "kkt", (
-                f"the noise is modelled ({', '.join(modelled)}) and the tracked residuals are "
-                f"white (lag-1 autocorrelation {worst:.2f} <= {limit:.2f})"
-            )
-        why = (
-            f"the noise is modelled ({', '.join(modelled)}) but the tracked residuals are "
-            f"correlated (lag-1 autocorrelation {worst:.2f} > {limit:.2f})"
-        )
-    elif N < AUTO_SANDWICH_MIN_NODES:
-        return "kkt", (
-            f"{N} nodes are too few for the sandwich's blocks (at least "
-            f"{AUTO_SANDWICH_MIN_NODES}); the KKT errors take the noise model as right"
-        )
-    else:
-        why = "the noise is not modelled"
-    if blocks is not None:
-        return "sandwich", (
-            f"{why}: the sandwich over the given time blocks stays right when the weights or "
-            "the noise model are wrong or the residuals correlated within a block"
-        )
-    obstacle = autoregressive_obstacle(design, residuals, owners)
-    if obstacle:
-        return "sandwich", (
-            f"{why}: the sandwich over time blocks stays right when the weights or the noise "
-            "model are wrong or the residuals correlated within a block (the autoregressive "
-            f"errors cannot be had: {obstacle})"
-        )
-    return "autoregressive", (
-        f"{why}: the residuals' covariance from an autoregression per trial stays right when "
-        "the weights or the noise model are wrong or the residuals correlated, however long"
-    )
 
 
 #: Variance per unit weight of a tracked signal that is taken as absolute weighting
@@ -503,109 +450,6 @@ def count_measurements(problem: Problem | Trials) -> int:
             if m:
                 total += int(np.count_nonzero(term.data[:, m : 2 * m] > 0))
     return total
-
-
-def _trial_block_starts(
-    blocks: int | Sequence[int] | Sequence[Sequence[int]] | None, design: Trials
-) -> list[np.ndarray]:
-    """The first node of every sandwich block, per trial (module description of ``blocks``)."""
-    sizes = [p.layout.num_nodes for p in design.problems]
-    if len(sizes) == 1:
-        return [_block_starts(blocks, sizes[0])]  # type: ignore[arg-type]
-    if blocks is None or isinstance(blocks, int | np.integer):
-        return [_block_starts(blocks, N) for N in sizes]  # type: ignore[arg-type]
-    flat = isinstance(blocks, Sequence) and any(isinstance(b, int | np.integer) for b in blocks)
-    if (
-        flat
-        or isinstance(blocks, str)
-        or not isinstance(blocks, Sequence)
-        or len(blocks) != len(sizes)
-    ):
-        hint = (
-            f" (a flat list of numbers is one trial's first nodes; for {len(sizes)} trials give "
-            f"one number for all, e.g. blocks=4, or a list of {len(sizes)} lists, e.g. "
-            f"blocks=[[0, 50], [0, 40], ...])"
-            if flat
-            else ""
-        )
-        raise ValueError(
-            f"blocks: with {len(sizes)} trials, expected one number of blocks for every trial "
-            f"or one sequence of first nodes per trial, found {blocks!r}{hint}"
-        )
-    out = []
-    for k, (own, N) in enumerate(zip(blocks, sizes, strict=True)):
-        if not isinstance(own, Sequence | np.ndarray) or isinstance(own, str):
-            raise ValueError(
-                f"blocks[{k}]: expected the first nodes of trial {k}'s blocks, found {own!r}"
-            )
-        out.append(_block_starts(list(own), N, least=1, name=f"blocks[{k}]"))
-    return out
-
-
-def _check_blocks_per_parameter(design: Trials, starts: list[np.ndarray]) -> None:
-    """Refuse blocks that leave a parameter informed by a single block: its residuals'
-    gradient sums to zero over that block at the optimum, so the sandwich would call it
-    exact."""
-    lonely = []
-    for s in design.unknown_parameters:
-        holders = [k for k, p in enumerate(design.problems) if s in p.partition.unknown_parameters]
-        if sum(starts[k].size for k in holders) < 2:
-            lonely.append(f"{name_of(s)} ({design.names[holders[0]]}'s own)")
-    if lonely:
-        raise ValueError(
-            f"blocks: {', '.join(lonely)} would be informed by one block only, whose gradient "
-            "vanishes at the optimum (a standard error of 0): give its trial at least 2 blocks"
-        )
-
-
-def _block_starts(
-    blocks: int | Sequence[int] | None, N: int, least: int = 2, name: str = "blocks"
-) -> np.ndarray:
-    if blocks is None:
-        count = max(2, int(round(np.sqrt(N))))
-        return np.unique(np.linspace(0, N, count, endpoint=False).astype(np.int64))
-    if isinstance(blocks, int | np.integer) and not isinstance(blocks, bool):
-        if not 2 <= blocks <= N:
-            raise ValueError(f"blocks: expected between 2 and {N} blocks, found {blocks}")
-        return np.unique(np.linspace(0, N, int(blocks), endpoint=False).astype(np.int64))
-    try:
-        starts = np.asarray(blocks, dtype=np.int64)
-    except (TypeError, ValueError) as exc:
-        raise ValueError(
-            f"{name}: expected a number of blocks or the first node of each, found {blocks!r}"
-        ) from exc
-    if starts.ndim != 1 or starts.size < least or (starts[0] != 0) or np.any(np.diff(starts) <= 0):
-        raise ValueError(
-            f"{name}: expected at least {least} increasing first nodes starting at 0, "
-            f"found {blocks!r}"
-        )
-    if starts[-1] >= N:
-        raise ValueError(f"{name}: first node {int(starts[-1])} is beyond the {N} nodes")
-    return starts
-
-
-def _block_gradients(design: Trials, z: np.ndarray, starts: list[np.ndarray]) -> sp.csc_matrix:
-    """``(n, nb)``: column ``b`` is the objective gradient of the nodes of block ``b``, the
-    blocks of each trial (``starts``) one trial after another."""
-    values, rows, columns = [], [], []
-    first = 0
-    for problem, zk, index, own in zip(
-        design.problems, design.split(z), design.index, starts, strict=True
-    ):
-        p = problem.nlp.objective_placement
-        if p is not None:
-            vals = p.mapped.jacobian(p.gather(zk), p.data).reshape(p.count, -1)
-            items = np.repeat(np.arange(p.count), vals.shape[1])
-            values.append(vals.ravel())
-            rows.append(index[p.jac_cols])
-            columns.append(first + np.searchsorted(own, items, side="right") - 1)
-        first += own.size
-    if not values:
-        raise ValueError("problem: has no least-squares objective to take residuals from")
-    return sp.coo_matrix(
-        (np.concatenate(values), (np.concatenate(rows), np.concatenate(columns))),
-        shape=(design.nlp.n, first),
-    ).tocsc()
 
 
 def cramer_rao_bound(
@@ -743,118 +587,3 @@ def _result(
         reason,
         effective_parameters=effective,
     )
-
-
-def _effective_variance(
-    design: Trials,
-    z: np.ndarray,
-    hessian: np.ndarray,
-    residuals: Sequence[SignalResiduals],
-    slopes: list[tuple[np.ndarray, np.ndarray]],
-) -> tuple[float, float, float]:
-    """The noise variance per unit weight from the tracked residuals alone, over their
-    effective degrees of freedom: ``sum w r^2 / (n_y - tr A)`` with ``A`` the influence of the
-    tracked samples on their own fit (:func:`influence_trace`, seed 0); also ``tr A`` and
-    ``n_y - tr A``. For a linear model with a right Gaussian prior its expectation is the
-    noise variance exactly; with a prior too loose for the disturbance it is not, but it is
-    closer than ``J* / (n - free)``, which counts the prior's small penalty and misses what
-    the disturbance took from the residuals (prior ten times too loose: 0.78 against 0.57;
-    the unknown-input example: 0.89 against 0.67)."""
-    tracked = [r for r in residuals if r.kind == "tracking"]
-    rss = float(sum(np.nansum(r.weights * np.nan_to_num(r.residuals) ** 2) for r in tracked))
-    samples = sum(int(np.count_nonzero(r.weights > 0)) for r in tracked)
-    trace = _influence_trace(design, z, hessian, residuals, slopes, INFLUENCE_PROBES, 0)
-    dof = samples - trace
-    if not dof > 0:
-        raise ValueError(
-            f"the tracked samples ({samples}) are not more than the effective number of "
-            f"estimated quantities ({trace:.1f}): no noise level can be read from them"
-        )
-    return rss / dof, trace, dof
-
-
-#: Rademacher probes of :func:`influence_trace`'s estimate when the tracked samples are more
-#: than this many (below, the trace is summed exactly, one solve per sample).
-INFLUENCE_PROBES = 64
-
-
-def influence_trace(
-    problem: Problem | Trials,
-    z: np.ndarray,
-    hessian: np.ndarray | None = None,
-    probes: int = INFLUENCE_PROBES,
-    seed: int = 0,
-) -> float:
-    """The effective number of estimated quantities: the trace of the influence matrix of
-    the tracked samples on their own fitted values, ``tr A = sum_i 2 w_i grad r_i^T
-    [K^-1]_zz grad r_i`` (``K`` the KKT matrix at ``z``).
-
-    Without priors it is the number of free quantities (the parameters and whatever the
-    constraints leave free); a disturbance or a measured input penalised by its prior counts
-    only as far as the data, not the prior, determine it. Up to ``probes`` tracked samples
-    the sum is exact; beyond, it is Hutchinson's estimate ``mean_j u_j^T A u_j`` over
-    ``probes`` random sign vectors ``u_j`` (one KKT solve each; its standard deviation is at
-    most ``sqrt(2 tr A / probes)``: 0.7 % of a trace of 650 with 64 probes).
-
-    Parameters
-    ----------
-    problem : Problem or Trials
-    z : ndarray
-        A solution's free vector.
-    hessian : ndarray, optional
-        The Lagrangian Hessian's values at ``z`` (default the objective's Gauss-Newton one).
-    probes : int
-        Sign vectors of the estimate (and the exact sum's largest size).
-    seed : int
-        Of the sign vectors.
-
-    Returns
-    -------
-    float
-    """
-    design = as_trials(problem)
-    values = design.nlp.gauss_newton_hessian(z) if hessian is None else hessian
-    residuals, _ = trial_residuals(design, z)
-    slopes = signal_slopes(design, z)
-    return _influence_trace(design, z, values, residuals, slopes, probes, seed)
-
-
-def _influence_trace(
-    design: Trials,
-    z: np.ndarray,
-    values: np.ndarray,
-    residuals: Sequence[SignalResiduals],
-    slopes: list[tuple[np.ndarray, np.ndarray]],
-    probes: int,
-    seed: int,
-) -> float:
-    """:func:`influence_trace` from the Hessian's values and the signals' residuals and
-    residual gradients (:func:`_signal_slopes`)."""
-    nlp = design.nlp
-    n, m = nlp.n, nlp.m
-    hr, hc = nlp.hessianstructure()
-    H = sp.coo_matrix((values, (hr, hc)), shape=(n, n)).tocsc()
-    H = (H + sp.triu(H.T, k=1)).tocsc()
-    jr, jc = nlp.jacobianstructure()
-    C = sp.coo_matrix((nlp.jacobian(z), (jr, jc)), shape=(m, n)).tocsc()
-    K = sp.bmat([[H, C.T], [C, None]], format="csc")
-    try:
-        lu = spla.splu(K)
-    except RuntimeError as exc:
-        raise ValueError("the KKT matrix at the solution is singular") from exc
-    # the tracked samples' scaled gradients sqrt(2 w_i) grad r_i as columns: A = S^T K^-1 S
-    columns = []
-    for (rows, slope), signal in zip(slopes, residuals, strict=True):
-        if signal.kind == "tracking":
-            used = np.flatnonzero(signal.weights > 0)
-            scale = 1.0 / np.sqrt(2.0 * signal.weights[used])
-            columns.append(per_sample(rows, slope, n)[:, used] @ sp.diags(scale))
-    S = sp.hstack(columns).tocsc()
-    if S.shape[1] <= probes:
-        block = S.toarray()
-    else:
-        signs = np.random.default_rng(seed).choice([-1.0, 1.0], size=(S.shape[1], probes))
-        block = S @ signs
-    solved = lu.solve(np.vstack([block, np.zeros((m, block.shape[1]))]))[:n]
-    total = float(np.sum(block * solved))
-    return total if S.shape[1] <= probes else total / probes
