@@ -195,6 +195,8 @@ def test_a_plan_without_a_pilot_simulates_one_for_the_subject_and_keeps_it(
     assert main(["gait", "plan", "--length", "120", "--speed", "1.1"]) == 0
     assert "now removed (--out keeps it)" in capsys.readouterr().out
     assert not fake.asked[-1].out.exists()
+    # real walking's motor noise unless told: without it the fit's bars are too narrow
+    assert fake.asked[-1].motor_noise == 3.0
 
 
 def test_a_plan_refuses_a_pilot_that_fell_and_pilot_options_beside_a_pilot(

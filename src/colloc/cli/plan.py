@@ -54,7 +54,11 @@ def add_parser(gs: Any) -> None:
         "--points", type=positive_int, default=None, help="schedule points P of the controller"
     )
     sim.add_argument(
-        "--motor-noise", type=number, default=None, help="motor noise on each torque [N m]"
+        "--motor-noise",
+        type=number,
+        default=None,
+        help="motor noise on each torque [N m] (default 3, real walking's; without it the "
+        "fit's bars are too narrow, docs/gait-guide.md)",
     )
     sim.add_argument(
         "--noise",
@@ -177,14 +181,14 @@ def _pilot_settings(args: argparse.Namespace) -> tuple[Any, list[str]]:
     """The pilot's simulation settings from the options given (the rest at ``colloc gait
     simulate``'s defaults, the length at the plan's), and their problems."""
     from colloc.gait.settings import GaitSimulationSettings
-    from colloc.identify.gait_plan import PILOT_SECONDS
+    from colloc.identify.gait_plan import PILOT_MOTOR_NOISE, PILOT_SECONDS
 
     given = {
         "speed": args.speed,
         "body_mass": args.mass,
         "height": args.height,
         "num_points": args.points,
-        "motor_noise": args.motor_noise,
+        "motor_noise": PILOT_MOTOR_NOISE if args.motor_noise is None else args.motor_noise,
         "noise": args.noise,
         "seed": args.seed,
     }
