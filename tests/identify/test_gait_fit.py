@@ -232,6 +232,10 @@ def test_the_smoother_fit_runs_end_to_end_with_its_bounds_and_errors(tmp_path):
         and "sandwich over" in n
         for n in summary["notes"]
     )
+    # the fixture walked without motor noise: its bars are too narrow, and that is said
+    from colloc.identify.gait_smoother_fit import ZERO_MOTOR_NOISE_NOTE
+
+    assert ZERO_MOTOR_NOISE_NOTE in summary["notes"]
     # the schedule is not pinned here, so its held-out VAF moves with round-off: a start
     # differing by 2e-13 (filtfilt's against sosfiltfilt's sections) moved the six joints'
     # by up to 0.056, the left knee's from 0.70 to 0.69 (measured)

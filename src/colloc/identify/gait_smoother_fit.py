@@ -26,6 +26,15 @@ from colloc.identify.gait_windows import (
     window_jobs,
 )
 
+#: Said of a trial that records no motor noise (a synthetic walk made without it).
+ZERO_MOTOR_NOISE_NOTE = (
+    "the trial records no motor noise: the walk's excursions from its mean stride come from "
+    "the belt alone, the smoother's state errors are a large share of them, and the bound "
+    "and standard errors read those errors as information, so both are too narrow (214 s at "
+    "1.2 m/s without motor noise: K error 3.0 times the bound, 79 % of entries within 3 SE; "
+    "docs/gait-guide.md); simulate with --motor-noise 3 for honest bars"
+)
+
 
 def smoother_fit(c: FitContext) -> Fit:
     """The dynamically consistent smoother (:mod:`colloc.identify.gait_smoother`), then the
@@ -115,6 +124,9 @@ def smoother_fit(c: FitContext) -> Fit:
             + ")"
         )
     )
+    motor = meta.get("motor_noise")
+    if isinstance(motor, dict) and float(motor.get("std", 0.0) or 0.0) == 0.0:
+        c.notes.append(ZERO_MOTOR_NOISE_NOTE)
     c.lap("controller")
     lasts = [r.stages[-1] for r in results]
     failed = [last for last in lasts if not last.success]
