@@ -193,6 +193,7 @@ MEASURED_FIGURES = (
     "gait-walk-phase.png",
     # docs/examples/opensim_walk.py, from OpenSim's example walk, which colloc may not ship
     "opensim-walk.png",
+    "opensim-smooth.png",
 )
 LAB_FIGURES = ("lab-clip-kinematics.png", "lab-clip-moments.png")
 
