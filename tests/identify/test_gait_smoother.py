@@ -402,3 +402,23 @@ def test_measured_rates_are_tracked_with_their_own_noise_levels(window, dynamics
         GaitSmoother(dynamics, t, q, v, STD, T, rates=rates)
     with pytest.raises(ValueError, match="rate_std: expected positive standard deviations"):
         GaitSmoother(dynamics, t, q, v, STD, T, rates=rates, rate_std=np.zeros(9))
+
+
+def test_node_means_remove_the_odd_even_mode_and_keep_a_line():
+    from colloc.identify.gait_smoother_results import node_means
+
+    k = np.arange(11.0)
+    line = np.column_stack([2.0 + 0.5 * k, -k])
+    alternating = line + np.column_stack([3.0 * (-1.0) ** k, np.zeros(11)])
+    np.testing.assert_allclose(node_means(alternating)[1:-1], line[1:-1], atol=1e-12)
+    # at the ends, the one interval's mean
+    np.testing.assert_allclose(node_means(line)[[0, -1]], 0.5 * (line[[0, -2]] + line[[1, -1]]))
+    # a sampled sine keeps cos(pi f h)^2 of its amplitude (inside)
+    h, f = 0.01, 10.0
+    t = np.arange(200) * h
+    wave = np.sin(2 * np.pi * f * t)[:, None]
+    np.testing.assert_allclose(
+        node_means(wave)[1:-1, 0], np.cos(np.pi * f * h) ** 2 * wave[1:-1, 0], atol=1e-12
+    )
+    with pytest.raises(ValueError, match=r"shape \(N, k\) with N >= 2"):
+        node_means(np.zeros(5))

@@ -413,6 +413,7 @@ def marker_smoother(
         track_positions=False,
         constants=constants,
         early_weights=dict.fromkeys(plate_signals, EARLY_PLATE_WEIGHT),
+        node_mean_inputs=True,
     )
     facts = {
         "tracked": "markers and plates" if samples else "markers",

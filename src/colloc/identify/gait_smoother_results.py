@@ -158,3 +158,30 @@ class SmoothedGait:
         speeds = slice(out.shape[1] // 2, None)
         out[1:, speeds] = 0.5 * (self.states[1:, speeds] + self.states[:-1, speeds])
         return out
+
+
+def node_means(values: np.ndarray) -> np.ndarray:
+    """Each node's value as the mean of the two intervals' around it.
+
+    ``(v_(k-1) + 2 v_k + v_(k+1)) / 4`` inside, the one interval's mean ``(v_0 + v_1) / 2``
+    at each end. This removes the odd-even mode exactly (a value alternating about its mean
+    gives the mean) and keeps a straight line inside; a signal at frequency ``f`` keeps
+    ``cos(pi f h)^2`` of its amplitude (98 % at 5 Hz, 90 % at 10 Hz with ``h`` = 0.01 s).
+
+    Parameters
+    ----------
+    values : ndarray, shape (N, k)
+        At the nodes, N >= 2.
+
+    Returns
+    -------
+    ndarray, shape (N, k)
+    """
+    v = np.asarray(values, dtype=float)
+    if v.ndim != 2 or v.shape[0] < 2:
+        raise ValueError(f"values: expected shape (N, k) with N >= 2, found {v.shape}")
+    pairs = 0.5 * (v[1:] + v[:-1])
+    out = np.empty_like(v)
+    out[0], out[-1] = pairs[0], pairs[-1]
+    out[1:-1] = 0.5 * (pairs[1:] + pairs[:-1])
+    return out
