@@ -20,12 +20,18 @@ from colloc.cli.common import (
     step_printer,
 )
 
-#: Options that describe the pilot to simulate (destination -> flag), with no pilot given.
-PILOT_OPTIONS = {
-    "speed": "--speed", "mass": "--mass", "height": "--height", "points": "--points",
-    "motor_noise": "--motor-noise", "noise": "--noise", "pilot_seconds": "--pilot-seconds",
-    "seed": "--seed",
-}  # fmt: skip
+#: Options that describe the pilot to simulate when none is given: the parsed option's
+#: destination, the simulation setting it sets (GaitSimulationSettings) and its flag.
+PILOT_OPTIONS = (
+    ("speed", "speed", "--speed"),
+    ("mass", "body_mass", "--mass"),
+    ("height", "height", "--height"),
+    ("points", "num_points", "--points"),
+    ("motor_noise", "motor_noise", "--motor-noise"),
+    ("noise", "noise", "--noise"),
+    ("seed", "seed", "--seed"),
+    ("pilot_seconds", "duration", "--pilot-seconds"),
+)
 
 
 def add_parser(gs: Any) -> None:
@@ -100,7 +106,7 @@ def run(args: argparse.Namespace) -> int:
     problems = output_problems(args.json, args.out)
     if args.target_k is None and args.length is None:
         problems.append("--target-k / --length: expected at least one, found neither")
-    given = [flag for dest, flag in PILOT_OPTIONS.items() if getattr(args, dest) is not None]
+    given = [flag for dest, _, flag in PILOT_OPTIONS if getattr(args, dest) is not None]
     simulation = None
     if args.pilot is not None:
         if not args.pilot.is_dir():
@@ -183,24 +189,14 @@ def _pilot_settings(args: argparse.Namespace) -> tuple[Any, list[str]]:
     from colloc.gait.settings import GaitSimulationSettings
     from colloc.identify.gait_plan import PILOT_MOTOR_NOISE, PILOT_SECONDS
 
-    given = {
-        "speed": args.speed,
-        "body_mass": args.mass,
-        "height": args.height,
-        "num_points": args.points,
-        "motor_noise": PILOT_MOTOR_NOISE if args.motor_noise is None else args.motor_noise,
-        "noise": args.noise,
-        "seed": args.seed,
+    # the plan's own defaults for the pilot's length and motor noise, the rest simulate's
+    chosen = {"duration": PILOT_SECONDS, "motor_noise": PILOT_MOTOR_NOISE} | {
+        field: getattr(args, dest)
+        for dest, field, _ in PILOT_OPTIONS
+        if getattr(args, dest) is not None
     }
-    duration = PILOT_SECONDS if args.pilot_seconds is None else args.pilot_seconds
-    settings = GaitSimulationSettings(
-        duration=duration, **{k: v for k, v in given.items() if v is not None}
-    )
-    flags = {
-        "speed": "--speed", "body_mass": "--mass", "height": "--height",
-        "num_points": "--points", "motor_noise": "--motor-noise", "noise": "--noise",
-        "seed": "--seed", "duration": "--pilot-seconds",
-    }  # fmt: skip
+    settings = GaitSimulationSettings(**chosen)
+    flags = {field: flag for _, field, flag in PILOT_OPTIONS}
     problems = []
     for problem in settings.problems():
         name = problem.split(":", 1)[0]
