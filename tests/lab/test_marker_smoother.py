@@ -50,11 +50,13 @@ def test_the_marker_smoother_comes_closer_to_the_walk_than_inverse_kinematics(
     theirs = np.degrees(_rms(ik - truth))
     # measured: 0.09-0.21 deg against the 6 Hz inverse kinematics' 0.18-0.74 deg
     assert np.all(ours < theirs) and ours.max() < 0.3
-    # torques within a few N m of the truth (the walk's own reach 100): each node's the mean
-    # of its two intervals' (measured 2.0-5.1 N m RMS; the raw node torques, which alternate
-    # node to node, 5.1-8.2)
-    assert _rms(result.torques - walk.torques).max() < 6.0
-    assert any("mean of its two intervals'" in n for n in result.notes)
+    # torques within a few N m of the truth (the walk's own reach 100); the node torques
+    # alternate node to node (measured 5.1-8.2 N m RMS), their node means, which a lab reads
+    # (gait smooth's table), do not (2.0-5.1 N m)
+    assert result.inputs_in_pairs
+    assert _rms(result.torques - walk.torques).max() < 10.0
+    torques, _ = result.node_mean_inputs()
+    assert _rms(torques - walk.torques).max() < 6.0
     # the markers are followed to their noise (1 mm drawn), the plates to theirs (2 N, 1 N m)
     assert fit["marker_rms_mm"] == pytest.approx(1.0, rel=0.3)
     assert fit["plate_force_rms_n"] < 3.0 and fit["plate_moment_rms_nm"] < 2.0

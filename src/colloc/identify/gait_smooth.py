@@ -171,6 +171,12 @@ def smooth_trial(
     begin = time.perf_counter()
     say = progress or (lambda step, detail: None)
     results = smooth_windows(jobs, prefixed(say, "smooth"), map_windows)
+    if any(result.inputs_in_pairs for result in results):
+        notes.append(
+            "torques and residual forces: each node's the mean of its two intervals' (the "
+            "trapezoidal rule ties the node accelerations only in pairs, and the torques that "
+            "no measurement pins alternate node to node)"
+        )
     return SmoothedTrial(trial, rows, results, time.perf_counter() - begin, notes)
 
 
@@ -181,8 +187,9 @@ def smoothed_table(run: SmoothedTrial) -> pd.DataFrame:
     frames = []
     for window in run.windows:
         frame = pd.DataFrame(window.states, columns=list(STATE_SIGNAL_NAMES))
-        frame[list(TORQUE_COLUMNS)] = window.torques
-        frame[list(RESIDUAL_COLUMNS)] = window.residuals
+        torques, residuals = window.node_mean_inputs()
+        frame[list(TORQUE_COLUMNS)] = torques
+        frame[list(RESIDUAL_COLUMNS)] = residuals
         frame.insert(0, "time", window.times)
         frames.append(frame)
     return pd.concat(frames, ignore_index=True)

@@ -37,12 +37,7 @@ from typing import Any
 import numpy as np
 import sympy as sm
 
-from colloc.identify.gait_smoother_results import (
-    SmoothedGait,
-    SmootherError,
-    SmootherStage,
-    node_means,
-)
+from colloc.identify.gait_smoother_results import SmoothedGait, SmootherError, SmootherStage
 from colloc.identify.gait_smoother_settings import (
     COMPLETION_STEPS,
     COMPLETION_TOL,
@@ -104,14 +99,15 @@ class GaitSmoother:
         weight. Measurements the smoothed contact cannot match (a plate's forces at
         ``v_s = 0.1`` m/s) so guide the early stages without pulling them apart.
     node_mean_inputs : bool
-        Report the joint torques and residual forces at each node as the mean of its two
-        intervals' (:func:`~colloc.identify.gait_smoother_results.node_means`), for a
+        The result's joint torques and residual forces are determined in pairs of nodes only
+        (:attr:`~colloc.identify.gait_smoother_results.SmoothedGait.inputs_in_pairs`), for a
         smoother that measures no torques under the trapezoidal rule: its defects tie the
         node accelerations only in pairs (``u_(k+1) - u_k = h (a_k + a_(k+1)) / 2``), so an
         acceleration alternating node to node moves no state, and the torques that make it
         alternate with it. Measured on 4 s of a simulated walk's lab export: the node
         torques 5.1-8.2 N m RMS from the truth with successive differences changing sign at
-        46-68 % of the nodes (the truth's 16-19 %), the interval means 2.0-5.1 N m.
+        46-68 % of the nodes (the truth's 16-19 %), their node means 2.0-5.1 N m
+        (:meth:`~colloc.identify.gait_smoother_results.SmoothedGait.node_mean_inputs`).
     """
 
     def __init__(
@@ -625,14 +621,6 @@ class GaitSmoother:
         gait = self.dynamics.gait
         order = [names.index(name_of(T)) for T in gait.torques]
         residual = [names.index(name_of(w)) for w in self.residual_inputs]
-        notes = []
-        if self._node_mean_inputs:
-            inputs = node_means(inputs)
-            notes.append(
-                "torques and residual forces: each node's the mean of its two intervals' (the "
-                "trapezoidal rule ties the node accelerations only in pairs, and the torques "
-                "that no measurement pins alternate node to node)"
-            )
         return SmoothedGait(
             self.times,
             X[:, :n].copy(),
@@ -645,5 +633,5 @@ class GaitSmoother:
             size=problem.size,
             seconds=time.perf_counter() - started,
             process=f"{socket.gethostname()}:{os.getpid()}",
-            notes=notes,
+            inputs_in_pairs=self._node_mean_inputs,
         )

@@ -93,6 +93,10 @@ class SmoothedGait:
     tracking : dict
         What the smoother tracked and with which noise levels (the marker smoother's
         markers, their places in their segments, the plates).
+    inputs_in_pairs : bool
+        The node torques and residual forces are determined only in pairs of neighbouring
+        nodes (the marker smoother under the trapezoidal rule): they alternate node to node,
+        and :meth:`node_mean_inputs` gives them without that mode.
     """
 
     times: np.ndarray
@@ -108,6 +112,7 @@ class SmoothedGait:
     seconds: float = float("nan")
     process: str = ""
     tracking: dict[str, Any] = field(default_factory=dict)
+    inputs_in_pairs: bool = False
 
     def __getstate__(self) -> dict[str, Any]:
         state = dict(self.__dict__)
@@ -118,6 +123,18 @@ class SmoothedGait:
         """The last stage's scheme (a result made before ``scheme`` was kept reads its
         problem's)."""
         return self.scheme if self.scheme is not None else self.problem.scheme
+
+    def node_mean_inputs(self) -> tuple[np.ndarray, np.ndarray]:
+        """Torques and residual forces as a lab reads them: each node's the mean of its two
+        intervals' (:func:`node_means`) when they are determined in pairs only
+        (:attr:`inputs_in_pairs`), else the node values. The identification regresses the
+        node values themselves: with the means, whose errors are correlated from node to
+        node, the bound from the residual came out below the error on a 60 s lab export (K
+        91 % from the truth against a bound of 36 %, 85 % within 3 SE; with the node values
+        106 % against 68 %, 92 %)."""
+        if not self.inputs_in_pairs or self.torques.shape[0] < 2:
+            return self.torques, self.residuals
+        return node_means(self.torques), node_means(self.residuals)
 
     def at_intervals(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Times, states and torques at the interval midpoints (averages of neighbouring
