@@ -74,6 +74,21 @@ def test_the_plan_reads_the_law_off_the_whole_pilot():
     assert "fell faster than the law" in said and "errs long" in said
 
 
+def test_a_target_for_tstar_too_needs_the_longer_of_the_two_records():
+    states = _measured_states()
+    k_only = plan_record(FIXTURE, target_k=0.2, states=states)
+    t_only = plan_record(FIXTURE, target_tstar=0.1, states=states)
+    both = plan_record(FIXTURE, target_k=0.2, target_tstar=0.1, states=states)
+    # beyond the 14 s pilot, each from its own law
+    assert t_only.needed_fit_seconds == pytest.approx((t_only.Tstar_coefficient / 0.1) ** 2)
+    assert both.needed_fit_seconds == pytest.approx(
+        max(k_only.needed_fit_seconds, t_only.needed_fit_seconds)
+    )
+    assert both.target_K == 0.2 and both.target_Tstar == 0.1
+    with pytest.raises(ValueError, match="target_tstar: expected a positive number"):
+        plan_record(FIXTURE, target_tstar=-1.0, states=states)
+
+
 def test_within_the_pilot_the_plan_computes_the_bound_on_its_first_seconds():
     gs, phase, states, _, Tstar, K = _design()
     trial = read_trial(FIXTURE)
@@ -91,6 +106,9 @@ def test_within_the_pilot_the_plan_computes_the_bound_on_its_first_seconds():
     assert bound(needed) <= 1.0 < bound(needed - 0.05)
     # a length within the pilot: its own bound, not the law's
     assert plan.K_bound_at_length == pytest.approx(bound(12.0), rel=1e-9)
+    t_bound = design_bounds(gs, phase[t <= t[0] + 12.0 + 1e-9], states[t <= t[0] + 12.0 + 1e-9],
+                            plan.noise_std, Tstar, K)[1]  # fmt: skip
+    assert plan.Tstar_bound_at_length == pytest.approx(t_bound, rel=1e-9)
 
 
 @pytest.fixture(scope="module")
@@ -126,7 +144,7 @@ def test_the_command_writes_the_plan_and_refuses_what_it_cannot_plan(planned, tm
     assert summary["target_K"] == 0.2 and summary["needed_record_seconds"] > 0
     assert (out / "bound_against_length.png").stat().st_size > 10_000
     assert main(["gait", "plan", str(FIXTURE)]) == 2
-    assert "expected at least one, found neither" in capsys.readouterr().err
+    assert "expected at least one, found none" in capsys.readouterr().err
     pilot = tmp_path / "pilot"
     shutil.copytree(FIXTURE, pilot)
     meta = yaml.safe_load((pilot / "metadata.yaml").read_text())

@@ -83,6 +83,12 @@ def add_parser(gs: Any) -> None:
         help="relative bound of K wanted, e.g. 0.2 for 20 %%",
     )
     pp.add_argument(
+        "--target-tstar",
+        type=number,
+        default=None,
+        help="relative bound of T* wanted too (the record meets both targets)",
+    )
+    pp.add_argument(
         "--length", type=number, default=None, help="a record length [s] to give the bound of"
     )
     pp.add_argument(
@@ -104,8 +110,8 @@ def add_parser(gs: Any) -> None:
 def run(args: argparse.Namespace) -> int:
     """Run ``colloc gait plan``; 0, or 2 on bad input."""
     problems = output_problems(args.json, args.out)
-    if args.target_k is None and args.length is None:
-        problems.append("--target-k / --length: expected at least one, found neither")
+    if args.target_k is None and args.target_tstar is None and args.length is None:
+        problems.append("--target-k / --target-tstar / --length: expected at least one, found none")
     given = [flag for dest, _, flag in PILOT_OPTIONS if getattr(args, dest) is not None]
     simulation = None
     if args.pilot is not None:
@@ -129,6 +135,7 @@ def run(args: argparse.Namespace) -> int:
         "record_seconds": args.length,
         "noise_std": args.torque_noise,
         "fit_fraction": args.fit_fraction,
+        "target_tstar": args.target_tstar,
     }
     # a pilot simulated without --out lives in a temporary folder for the plan's time
     scratch_needed = simulation is not None and args.out is None
@@ -158,13 +165,21 @@ def run(args: argparse.Namespace) -> int:
     for length, bound in zip(plan.fitted_seconds, plan.K_bound, strict=True):
         print(f"pilot, {length:.0f} s fitted: K bound {100 * bound:.1f} %")
     print(f"law: K bound = {plan.K_coefficient:.3g} / sqrt(fitted seconds)")
-    if plan.needed_record_seconds is not None and plan.target_K is not None:
+    if plan.needed_record_seconds is not None:
+        wanted = " and ".join(
+            f"a {name} bound of {100 * target:g} %"
+            for name, target in (("K", plan.target_K), ("T*", plan.target_Tstar))
+            if target is not None
+        )
         print(
-            f"for a K bound of {100 * plan.target_K:g} %: fit {plan.needed_fit_seconds:.0f} s, "
+            f"for {wanted}: fit {plan.needed_fit_seconds:.0f} s, "
             f"record {plan.needed_record_seconds:.0f} s (fit fraction {plan.fit_fraction:g})"
         )
-    if plan.K_bound_at_length is not None:
-        print(f"a {plan.record_seconds:g} s record: K bound {100 * plan.K_bound_at_length:.1f} %")
+    if plan.K_bound_at_length is not None and plan.Tstar_bound_at_length is not None:
+        print(
+            f"a {plan.record_seconds:g} s record: K bound {100 * plan.K_bound_at_length:.1f} %, "
+            f"T* bound {100 * plan.Tstar_bound_at_length:.1f} %"
+        )
     for note in plan.notes:
         print(f"note: {note}")
     summary = plan.to_dict()

@@ -62,7 +62,8 @@ class RecordPlan:
         The torque equations' noise [N m].
     fit_fraction : float
         Share of a record that is fitted (the rest validates).
-    target_K : float or None
+    target_K, target_Tstar : float or None
+        Relative bounds wanted; the length needed meets both.
     needed_fit_seconds, needed_record_seconds : float or None
         For ``target_K``.
     record_seconds : float or None
@@ -82,10 +83,12 @@ class RecordPlan:
     noise_std: float
     fit_fraction: float
     target_K: float | None = None
+    target_Tstar: float | None = None
     needed_fit_seconds: float | None = None
     needed_record_seconds: float | None = None
     record_seconds: float | None = None
     K_bound_at_length: float | None = None
+    Tstar_bound_at_length: float | None = None
     pilot: dict[str, Any] = field(default_factory=dict)
     notes: list[str] = field(default_factory=list)
 
@@ -144,10 +147,15 @@ def plan_record_problems(
     record_seconds: float | None,
     noise_std: float | None,
     fit_fraction: float,
+    target_tstar: float | None = None,
 ) -> None:
     """Raise ValueError naming every unusable option of :func:`plan_record`."""
     problems = []
-    for name, value in (("target_k", target_k), ("record_seconds", record_seconds)):
+    for name, value in (
+        ("target_k", target_k),
+        ("target_tstar", target_tstar),
+        ("record_seconds", record_seconds),
+    ):
         if value is not None and not (
             isinstance(value, int | float) and np.isfinite(value) and value > 0
         ):
@@ -171,8 +179,9 @@ def plan_record(
     fit_fraction: float = 0.75,
     states: np.ndarray | None = None,
     progress: Progress | None = None,
+    target_tstar: float | None = None,
 ) -> RecordPlan:
-    """The record a target bound on ``K`` needs, or the bound a record reaches.
+    """The record a target bound on ``K`` (and ``T*``) needs, or the bound a record reaches.
 
     The design is the pilot's states as the fit sees them: the smoother's (as ``colloc gait
     identify`` smooths a trial), not the measured ones. Measured on a 60 s simulated pilot
@@ -202,6 +211,8 @@ def plan_record(
         sensor noise; default the smoother's (minutes for a minute of pilot).
     progress : callable, optional
         ``progress(step, detail)`` of the smoother's stages.
+    target_tstar : float, optional
+        Relative bound of ``T*`` wanted; the length needed meets this and ``target_k``.
 
     Returns
     -------
@@ -212,7 +223,7 @@ def plan_record(
     ValueError
         On unusable options or a pilot without a recorded controller (every problem at once).
     """
-    plan_record_problems(target_k, record_seconds, noise_std, fit_fraction)
+    plan_record_problems(target_k, record_seconds, noise_std, fit_fraction, target_tstar)
     # read and checked as identify reads a trial (its split does not matter here: the
     # whole pilot is the design)
     settings = GaitIdentifySettings(trial=Path(pilot), fit_fraction=0.5)
@@ -311,26 +322,36 @@ def plan_record(
         np.asarray(lengths), np.asarray(k_bounds), np.asarray(t_bounds), k_c, t_c,
         float(noise_std), float(fit_fraction), pilot={"trial": str(pilot)}, notes=notes,
     )  # fmt: skip
-    if target_k is not None:
-        plan.target_K = float(target_k)
-        if k_bounds[-1] > target_k:
-            plan.needed_fit_seconds = (k_c / target_k) ** 2
+    plan.target_K = None if target_k is None else float(target_k)
+    plan.target_Tstar = None if target_tstar is None else float(target_tstar)
+    needed = []
+    for which, name, target, computed, c in (
+        (0, "K", target_k, k_bounds, k_c),
+        (1, "T*", target_tstar, t_bounds, t_c),
+    ):
+        if target is None:
+            continue
+        if computed[-1] > target:
+            needed.append((c / target) ** 2)
             notes.append(
-                f"the length for a K bound of {target_k:g} is beyond the pilot's {span:.0f} s: "
-                "from the 1/sqrt(length) law"
+                f"the length for a {name} bound of {target:g} is beyond the pilot's "
+                f"{span:.0f} s: from the 1/sqrt(length) law"
             )
         else:
-            plan.needed_fit_seconds = _within_pilot(bound_at, lengths, k_bounds, target_k)
+            needed.append(_within_pilot(bound_at, lengths, computed, target, which))
             notes.append(
-                f"the length for a K bound of {target_k:g} is within the pilot: computed on its "
-                "own first seconds"
+                f"the length for a {name} bound of {target:g} is within the pilot: computed on "
+                "its own first seconds"
             )
+    if needed:
+        plan.needed_fit_seconds = float(max(needed))
         plan.needed_record_seconds = plan.needed_fit_seconds / fit_fraction
     if record_seconds is not None:
         plan.record_seconds = float(record_seconds)
         fitted = record_seconds * fit_fraction
         inside = bound_at(fitted) if fitted <= span else None
         plan.K_bound_at_length = k_c / np.sqrt(fitted) if inside is None else inside[0]
+        plan.Tstar_bound_at_length = t_c / np.sqrt(fitted) if inside is None else inside[1]
     return plan
 
 
@@ -368,16 +389,19 @@ def smoothed_states(
     return np.concatenate([p[0] for p in pieces]), np.concatenate([p[1] for p in pieces])
 
 
-def _within_pilot(bound_at: Any, lengths: list[float], bounds: list[float], target: float) -> float:
-    """The fitted length within the pilot whose K bound is ``target``, by bisection between
-    the computed lengths that bracket it (the bound falls with the length)."""
+def _within_pilot(
+    bound_at: Any, lengths: list[float], bounds: list[float], target: float, which: int = 0
+) -> float:
+    """The fitted length within the pilot whose bound (``which``: 0 K, 1 T*) is ``target``,
+    by bisection between the computed lengths that bracket it (the bound falls with the
+    length)."""
     above = [(L, b) for L, b in zip(lengths, bounds, strict=True) if b > target]
     hi = min(L for L, b in zip(lengths, bounds, strict=True) if b <= target)
     lo = max((L for L, _ in above if L < hi), default=hi / 4)
     for _ in range(BISECTIONS):
         mid = 0.5 * (lo + hi)
         bounds_mid = bound_at(mid)
-        if bounds_mid is None or bounds_mid[0] > target:
+        if bounds_mid is None or bounds_mid[which] > target:
             lo = mid
         else:
             hi = mid
@@ -409,6 +433,7 @@ def plan_for_subject(
     noise_std: float | None = None,
     fit_fraction: float = 0.75,
     progress: Progress | None = None,
+    target_tstar: float | None = None,
 ) -> RecordPlan:
     """The plan of :func:`plan_record` without a pilot of one's own: a pilot walk of the
     subject, speed, schedule and noise planned for is simulated first.
@@ -420,7 +445,7 @@ def plan_for_subject(
         ``motor_noise``, sensor ``noise``, ``seed``, its ``duration`` (e.g.
         :data:`PILOT_SECONDS`) and the folder ``out`` it is written to (``out/trial`` is
         the pilot a later plan can be given).
-    target_k, record_seconds, noise_std, fit_fraction
+    target_k, record_seconds, noise_std, fit_fraction, target_tstar
         As :func:`plan_record`.
     progress : callable, optional
         ``progress(step, detail)`` of the simulation's steps.
@@ -440,7 +465,7 @@ def plan_for_subject(
 
     simulation.validate()
     # the plan's own options checked before minutes of simulation
-    plan_record_problems(target_k, record_seconds, noise_std, fit_fraction)
+    plan_record_problems(target_k, record_seconds, noise_std, fit_fraction, target_tstar)
     result = simulate_trial(simulation, progress=progress)
     if result.fell:
         raise ValueError(
@@ -462,6 +487,7 @@ def plan_for_subject(
         noise_std=noise_std,
         fit_fraction=fit_fraction,
         states=exact,
+        target_tstar=target_tstar,
     )
     plan.pilot |= {"simulated": simulation.to_dict()}
     plan.notes.insert(
