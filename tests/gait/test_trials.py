@@ -897,3 +897,16 @@ def test_ground_reactions_are_written_with_their_noise_and_read_back_with_gaps(t
     )
     back = read_trial(trial.write(tmp_path / "trial"))
     np.testing.assert_array_equal(back.signals["left_cop_x"], trial.signals["left_cop_x"])
+
+
+def test_a_plate_rate_must_be_a_whole_multiple_of_the_sample_rate():
+    from colloc.gait.settings import GaitSimulationSettings
+
+    assert GaitSimulationSettings(plate_rate=1000.0).plate_substeps_exact() == 10
+    assert GaitSimulationSettings().plate_substeps_exact() == 1
+    for bad in (1050.0, 50.0, float("nan"), 1e6):
+        problems = GaitSimulationSettings(plate_rate=bad).problems()
+        assert problems == [
+            f"plate_rate: expected None or a whole multiple (1 to 20) of sample_rate 100.0 Hz, "
+            f"found {bad!r}"
+        ]

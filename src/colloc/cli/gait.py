@@ -94,8 +94,18 @@ def add_parser(sub: Any, default_url: str) -> None:
         action="store_true",
         help="also write the markers, force plates and belt speed a gait lab would have "
         "recorded, 1 mm marker noise, in each format colloc gait trial-from-lab reads: "
-        "lab-export.tsv, lab-export.trc with lab-export_grf.mot and its _grf.xml, and "
-        "lab-export.c3d",
+        "markers on the landmarks with plates at the markers' rate in lab-export.tsv, "
+        "lab-export.trc with lab-export_grf.mot and its _grf.xml, and lab-export.c3d; and "
+        "skin markers (thigh and shank clusters, pelvis markers) with plates at --plate-rate "
+        "and a static trial in lab-skin.tsv, lab-skin.trc with lab-skin_grf.mot, lab-skin.c3d "
+        "and lab-skin-static.tsv/.trc/.c3d (read them with --static)",
+    )
+    sim.add_argument(
+        "--plate-rate",
+        type=number,
+        default=1000.0,
+        help="with --lab-export: the skin-marker export's force-plate rate [Hz], a whole "
+        "multiple of the 100 Hz record (default %(default)s)",
     )
     sim.add_argument(
         "--perturbation-scale",
@@ -477,6 +487,7 @@ def gait_simulate_checks(args: argparse.Namespace) -> tuple[Any, list[str]]:
         perturbation_scale=args.perturbation_scale,
         motor_noise=args.motor_noise,
         noise=args.noise,
+        plate_rate=args.plate_rate if args.lab_export else None,
     )
     too_big = settings.too_big(memory_bytes())
     return settings, settings.problems() + too_big + output_problems(None, args.out)
@@ -500,13 +511,17 @@ def _gait_simulate(args: argparse.Namespace) -> int:
     result = simulate_trial(settings, progress=step_printer(start))
     if args.lab_export:
         from colloc.lab import lab_export_from_record
-        from colloc.lab.writers import write_lab_files
+        from colloc.lab.synthetic_skin import skin_lab_from_record
+        from colloc.lab.writers import write_lab_files, write_skin_lab
         from colloc.models.gait2d_params import load_parameters
 
         params = load_parameters(settings.body_mass, settings.height)
         export = lab_export_from_record(result.record, params, seed=settings.seed)
         for role, path in write_lab_files(export, result.out).items():
             result.files[f"lab export ({role})"] = path
+        skin = skin_lab_from_record(result.record, params, seed=settings.seed)
+        for role, path in write_skin_lab(skin, result.out).items():
+            result.files[f"lab export, skin markers ({role})"] = path
     for name, path in result.files.items():
         print(f"  {name}: {path}")
     for note in result.notes:

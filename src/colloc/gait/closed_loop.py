@@ -81,6 +81,10 @@ class ClosedLoopRecord:
     ground_reactions : ndarray, shape (N, 6) or None
         Each foot's forward and vertical force and centre of pressure
         (:func:`colloc.gait.strikes.foot_ground_reactions`).
+    fine_times, fine_states, fine_contact_forces : ndarray or None
+        With ``substeps`` > 1 in :func:`simulate_walking`: the same walk's states and contact
+        forces at ``substeps`` times the sample rate (a lab's force plates run faster than
+        its cameras), from the same integration.
     fell : bool
         True if the hip height left ``hip_height_range`` or the integration failed.
     message : str
@@ -102,6 +106,9 @@ class ClosedLoopRecord:
     message: str
     stats: dict[str, Any] = field(default_factory=dict)
     ground_reactions: np.ndarray | None = None
+    fine_times: np.ndarray | None = None
+    fine_states: np.ndarray | None = None
+    fine_contact_forces: np.ndarray | None = None
 
     @property
     def vertical_grf(self) -> np.ndarray:
@@ -124,6 +131,7 @@ def _closed_loop_integrator(
     feedback: np.ndarray,
     phi0: float,
     window: int,
+    substeps: int = 1,
 ) -> tuple[ca.Function, ca.Function]:
     """CVODES over ``chunk`` samples.
 
@@ -149,7 +157,7 @@ def _closed_loop_integrator(
     torque = t_star - ca.mtimes(gain, s) + ca.mtimes(noise, sample_hats)
     ode = ca.substitute(dyn.xdot, ca.vertcat(dyn.torque, dyn.belt), ca.vertcat(torque, belt))
     p = ca.vertcat(a, b, p0, v, ca.vec(noise), ca.vec(tstar_table), ca.vec(k_table))
-    grid = list(h * np.arange(1, chunk + 1))
+    grid = list(h / substeps * np.arange(1, chunk * substeps + 1))
     opts = {"abstol": rtol * 1e-2, "reltol": rtol, "max_num_steps": 100000}
     integ = ca.integrator(
         "walk", "cvodes", {"x": dyn.x, "p": p, "t": tau, "ode": ode}, 0.0, grid, opts
@@ -188,6 +196,7 @@ def simulate_walking(
     stride_duration: float | None = None,
     phase_at_strike: float | None = None,
     initial_phase: float = 0.0,
+    substeps: int = 1,
 ) -> ClosedLoopRecord:
     """Simulate walking on a treadmill under the gain-scheduled controller.
 
@@ -240,6 +249,13 @@ def simulate_walking(
         phase a gait lab computes from heel strikes.
     initial_phase : float
         ``phi`` at time 0 (default 0, the cycle's start).
+    substeps : int
+        Also keep the states and contact forces at ``substeps`` times the sample rate
+        (``fine_*`` in the record), read from the same integration: CVODES steps as its error
+        control asks and interpolates at each output time, so the walk at the samples is the
+        same for any ``substeps`` (checked in ``tests/gait/test_closed_loop.py``). The
+        controller's phase, the noise, the belt and the heel-strike detection stay at the
+        sample rate.
 
     Returns
     -------
@@ -289,8 +305,10 @@ def simulate_walking(
         raise ValueError(f"K: has {K.shape[2]} gain columns but feedback names {fb.size} states")
     phi0 = strike_phase(cycle, threshold) if phase_at_strike is None else float(phase_at_strike)
     window = _schedule_window(Tstar.shape[0], CHUNK_SAMPLES, h, nominal)
+    if isinstance(substeps, bool) or not isinstance(substeps, int | np.integer) or substeps < 1:
+        raise ValueError(f"substeps: expected a positive int, found {substeps!r}")
     integ, torque_fn = _closed_loop_integrator(
-        dyn, Tstar.shape[0], h, CHUNK_SAMPLES, rtol, fb, phi0, window
+        dyn, Tstar.shape[0], h, CHUNK_SAMPLES, rtol, fb, phi0, window, int(substeps)
     )
 
     x0 = cycle.state_at(0.0) if initial_state is None else np.asarray(initial_state, float)
@@ -303,6 +321,7 @@ def simulate_walking(
     strikes: dict[str, list[float]] = {"right": [], "left": []}
     fy = np.zeros((num, 2))
     fy[0] = _foot_forces(dyn, x0, v_all[0])
+    fine: list[np.ndarray] = [x0[None, :]]
     fell, message, calls = False, "walked the whole duration", 0
     start_wall = time.perf_counter()
     i = 0  # last accepted sample
@@ -324,7 +343,7 @@ def simulate_walking(
         restart, base = False, i
         for j in range(1, min(CHUNK_SAMPLES, num - 1 - base) + 1):
             k = base + j
-            states[k] = out[j - 1]
+            states[k] = out[j * substeps - 1]
             tau = j * h
             torques[k] = np.asarray(torque_fn(states[k], tau, p)).ravel()
             phase[k] = stride_count + min(a + b * tau, 1.0 + phi0)
@@ -359,12 +378,26 @@ def simulate_walking(
             i = k
             if restart:
                 break
+        if substeps > 1:
+            fine.append(out[: (i - base) * substeps])
         if fell:
             break
     wall = time.perf_counter() - start_wall
     last = i + 1
     contact = np.asarray(dyn.contact_forces.map(last)(states[:last].T, v_all[:last])).T
     contact_x = np.asarray(dyn.contact_positions.map(last)(states[:last].T)).T
+    fine_parts = {}
+    if substeps > 1:
+        fine_states = np.concatenate(fine)
+        fine_times = np.arange(len(fine_states)) * (h / substeps)
+        fine_v = np.interp(fine_times, times, v_all)
+        fine_parts = {
+            "fine_times": fine_times,
+            "fine_states": fine_states,
+            "fine_contact_forces": np.asarray(
+                dyn.contact_forces.map(fine_times.size)(fine_states.T, fine_v[None, :])
+            ).T,
+        }
     record = ClosedLoopRecord(
         times=times[:last],
         states=states[:last],
@@ -378,6 +411,7 @@ def simulate_walking(
         phase=phase[:last],
         fell=fell,
         message=message,
+        **fine_parts,
         stats={
             "wall_time": wall,
             "realtime_factor": times[last - 1] / wall if wall > 0 else float("inf"),

@@ -49,6 +49,8 @@ AUTO_NUM_NODES: tuple[int, ...] = (60, 100, 160)
 MAX_NUM_POINTS = 200
 #: Motor noise [N m]: real walking has 2-5; 1e9 broke the simulation.
 MAX_MOTOR_NOISE = 100.0
+#: Largest ratio of the plates' rate to the sample rate (20 kHz plates under 1 kHz cameras).
+MAX_PLATE_SUBSTEPS = 20
 
 #: Wall seconds per simulated second of walking, and the fixed cost before it (cycle, settle,
 #: design, figures). Measured on the 2-core machine at the defaults: 60 s of walking took
@@ -118,6 +120,10 @@ class GaitSimulationSettings:
         rates), ``"joints+trunk"`` or ``"all"`` (every state but the hip's forward position).
     animation_seconds : float
         Length of the animation and of the contact-force window [s], > 0.
+    plate_rate : float or None
+        Also keep the walk's ground reactions at this rate [Hz], a whole multiple of
+        ``sample_rate`` (force plates sample faster than cameras: 1000 Hz against 100 Hz),
+        for a lab export's plates; None: at the sample rate only.
     """
 
     duration: float = 60.0
@@ -138,6 +144,7 @@ class GaitSimulationSettings:
     structure: str = "full"
     feedback: str = "all"
     animation_seconds: float = 5.0
+    plate_rate: float | None = None
 
     def problems(self) -> list[str]:
         """Every problem with these settings (empty when they are usable)."""
@@ -174,6 +181,13 @@ class GaitSimulationSettings:
                 "perturbation_scale: expected a finite number >= 0, found "
                 f"{self.perturbation_scale!r}"
             )
+        if self.plate_rate is not None:
+            ratio = self.plate_substeps_exact()
+            if ratio is None:
+                out.append(
+                    f"plate_rate: expected None or a whole multiple (1 to {MAX_PLATE_SUBSTEPS}) "
+                    f"of sample_rate {self.sample_rate!r} Hz, found {self.plate_rate!r}"
+                )
         if not isinstance(self.perturbed, bool):
             out.append(f"perturbed: expected True or False, found {self.perturbed!r}")
         if isinstance(self.seed, bool) or not isinstance(self.seed, int) or self.seed < 0:
@@ -278,6 +292,19 @@ class GaitSimulationSettings:
             f"{memory_bytes / 2**30:.3g} GiB available (and about "
             f"{needs['seconds'] / 3600:.3g} h); simulate a shorter trial or a lower rate"
         ]
+
+    def plate_substeps_exact(self) -> int | None:
+        """``plate_rate / sample_rate`` when it is a whole number from 1 to
+        :data:`MAX_PLATE_SUBSTEPS` (1 without a plate rate), else None."""
+        if self.plate_rate is None:
+            return 1
+        if not (_finite(self.plate_rate) and _finite(self.sample_rate) and self.sample_rate > 0):
+            return None
+        ratio = float(self.plate_rate) / float(self.sample_rate)
+        whole = int(round(ratio))
+        if abs(ratio - whole) > 1e-9 * max(ratio, 1.0) or not 1 <= whole <= MAX_PLATE_SUBSTEPS:
+            return None
+        return whole
 
     @property
     def belt_path(self) -> Path:

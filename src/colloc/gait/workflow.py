@@ -426,6 +426,7 @@ def simulate_trial(
             sample_rate=settings.sample_rate,
             torque_noise=settings.motor_noise,
             feedback=feedback,
+            substeps=settings.plate_substeps_exact() or 1,
         )
     with clock.step("trial", f"trial with sensor noise at {settings.sample_rate} Hz"):
         metadata = synthetic_metadata(

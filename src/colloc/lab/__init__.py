@@ -50,6 +50,9 @@ _EXPORTS = {
     "LabNoise": "colloc.lab.synthetic",
     "lab_export_from_record": "colloc.lab.synthetic",
     "write_lab_export": "colloc.lab.synthetic",
+    "SkinLab": "colloc.lab.synthetic_skin",
+    "skin_lab_from_record": "colloc.lab.synthetic_skin",
+    "write_skin_lab": "colloc.lab.writers",
 }
 
 __getattr__, __dir__ = lazy_exports(__name__, _EXPORTS, globals())
@@ -74,6 +77,7 @@ if TYPE_CHECKING:  # for type checkers; re-exported through __all__
     from colloc.lab.sagittal import SagittalPlane, find_plane, sagittal_exports
     from colloc.lab.settings import LabSettings
     from colloc.lab.synthetic import LabNoise, lab_export_from_record, write_lab_export
-    from colloc.lab.writers import write_lab_files
+    from colloc.lab.synthetic_skin import SkinLab, skin_lab_from_record
+    from colloc.lab.writers import write_lab_files, write_skin_lab
 
 __all__ = list(_EXPORTS)

@@ -83,6 +83,10 @@ class LabExport:
         Every other numeric column by its name (e.g. a belt speed).
     source : str
         The file read (or what the export was made from).
+    lateral : dict
+        Marker name -> array (N,): its ``.PosZ`` column [m] (to the subject's right of the
+        plane), for the markers that have one. The planar pipeline reads past it; a marker
+        set of clusters and pelvis markers needs it (:func:`colloc.lab.from_files`).
     """
 
     time: np.ndarray
@@ -90,6 +94,7 @@ class LabExport:
     plates: dict[str, np.ndarray]
     columns: dict[str, np.ndarray] = field(default_factory=dict)
     source: str = ""
+    lateral: dict[str, np.ndarray] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
         time = np.asarray(self.time, dtype=float)
@@ -215,12 +220,18 @@ def read_lab_export(
             )
     if problems:
         raise LabFileError(str(path), problems)
+    lateral = {
+        name: np.where(np.isnan(marker_xy[name][:, 0]), np.nan, values[f"{name}.PosZ"])
+        for name in markers
+        if f"{name}.PosZ" in values
+    }
     return LabExport(
         time=time,
         markers=marker_xy,
         plates=plate_channels,
         columns={name: values[name] for name in rest},
         source=str(path),
+        lateral=lateral,
     )
 
 

@@ -95,17 +95,29 @@ def trial_from_lab(
             standing = read_lab_file(static)
         except LabFileError as error:
             problems += [f"{error.source}: {p}" for p in error.problems]
-        if standing is not None and not isinstance(standing, LabRecord):
-            problems.append(
-                f"{static}: a static trial must be 3-D (TRC or C3D), found a planar export"
-            )
+        if isinstance(standing, LabExport):
+            if _is_3d(standing):
+                standing = _as_record(standing)
+            else:
+                problems.append(
+                    f"{static}: a static trial must be 3-D (TRC, C3D, or a tab export with a "
+                    "NAME.PosZ column for every marker), found a planar export"
+                )
     if problems:
         raise LabFileError("lab record", problems)
     landmarks: dict[str, Any] = {}
     first = read[0]
     uses_default_names = settings.marker_set == MarkerSet()
+    needed = [DEFAULT_MARKER_SET.marker(side, lm) for side in SIDES for lm in LANDMARKS]
+    if (
+        isinstance(first, LabExport)
+        and uses_default_names
+        and _is_3d(first)
+        and not all(name in first.markers for name in needed)
+    ):
+        # a tab export of clusters and pelvis markers: their poses need the third axis
+        first = read[0] = _as_record(first)
     if isinstance(first, LabRecord) and uses_default_names:
-        needed = [DEFAULT_MARKER_SET.marker(side, lm) for side in SIDES for lm in LANDMARKS]
         if not all(name in first.markers for name in needed):
             read[0], landmarks = landmark_record(
                 first, standing if isinstance(standing, LabRecord) else None
@@ -185,10 +197,17 @@ def _planar(
     return markers, forces, settings, notes
 
 
+def _is_3d(export: LabExport) -> bool:
+    """Every marker of a tab export has its ``.PosZ`` column."""
+    return bool(export.markers) and all(name in export.lateral for name in export.markers)
+
+
 def _as_record(export: LabExport) -> LabRecord:
-    """A planar export as a 3-D record in (forward, up, 0), so it can pair with a 3-D file."""
+    """A tab export as a 3-D record in (forward, up, right), so it can pair with a 3-D file
+    or carry clusters; a marker without ``.PosZ`` lies in the plane."""
     markers = {
-        name: np.column_stack([xy, np.zeros(len(xy))]) for name, xy in export.markers.items()
+        name: np.column_stack([xy, export.lateral.get(name, np.zeros(len(xy)))])
+        for name, xy in export.markers.items()
     }
     plates = {}
     for name, channels in export.plates.items():

@@ -13,17 +13,22 @@ from __future__ import annotations
 
 import os
 from pathlib import Path
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
+import pandas as pd
 
 from colloc.data.columns import SIDES
-from colloc.lab.exports import LabExport
+from colloc.lab.exports import PLATE_CHANNELS, LabExport
 from colloc.lab.formats.c3d import write_c3d
 from colloc.lab.formats.mot import write_grf_mapping, write_mot
 from colloc.lab.formats.trc import write_trc
 from colloc.lab.markers import DEFAULT_MARKER_SET, MarkerSet
-from colloc.lab.record import PlateSeries
+from colloc.lab.record import LabRecord, PlateSeries
 from colloc.lab.synthetic import write_lab_export
+
+if TYPE_CHECKING:
+    from colloc.lab.synthetic_skin import SkinLab
 
 #: Distance [m] of each side's markers and plate from the sagittal plane.
 LATERAL = 0.1
@@ -149,3 +154,121 @@ def _plate(
         point[:, axes[0]] = np.where(fy != 0.0, mz / fy, 0.0)
     point[:, lateral_axis] = lateral
     return PlateSeries(export.time, force, point, np.zeros((len(fx), 3)))
+
+
+#: The files :func:`write_skin_lab` writes per format: the walk's, then the static trial's.
+SKIN_FILES: dict[str, tuple[str, ...]] = {
+    "tsv": ("lab-skin.tsv", "lab-skin-static.tsv"),
+    "trc": ("lab-skin.trc", "lab-skin_grf.mot", "lab-skin_grf.xml", "lab-skin-static.trc"),
+    "c3d": ("lab-skin.c3d", "lab-skin-static.c3d"),
+}
+
+
+def write_skin_lab(
+    lab: SkinLab,
+    folder: str | os.PathLike[str],
+    formats: tuple[str, ...] = tuple(SKIN_FILES),
+    marker_set: MarkerSet = DEFAULT_MARKER_SET,
+) -> dict[str, Path]:
+    """Write a skin-marker walk and its static trial in each of ``formats``.
+
+    The TSV holds ``NAME.PosX/PosY/PosZ`` (forward, up, right) and the plates at the
+    markers' times (a tab export has one rate); TRC + MOT and C3D hold the plates at their
+    own rate (MOT rows; C3D analogs). The static trials hold markers only.
+
+    Parameters
+    ----------
+    lab : SkinLab
+        :func:`colloc.lab.synthetic_skin.skin_lab_from_record`.
+    folder : path-like
+        An existing folder.
+    formats : tuple of str
+        Among :data:`SKIN_FILES`.
+    marker_set : MarkerSet
+        Which plate is under which foot.
+
+    Returns
+    -------
+    dict
+        File role (``tsv``, ``static_tsv``, ``trc``, ``mot``, ``grf_xml``, ``static_trc``,
+        ``c3d``, ``static_c3d``) -> path.
+
+    Raises
+    ------
+    ValueError
+        If a format is unknown, or the plates' rate is not a whole multiple of the markers'.
+    """
+    unknown = [f for f in formats if f not in SKIN_FILES]
+    if unknown:
+        raise ValueError(f"formats: expected some of {list(SKIN_FILES)}, found {unknown}")
+    folder = Path(folder)
+    walk, static = lab.walk, lab.static
+    rate = 1.0 / float(np.median(np.diff(walk.time)))
+    plate_rate = next(iter(walk.plates.values())).sample_rate
+    per_frame = int(round(plate_rate / rate))
+    if abs(plate_rate / rate - per_frame) > 1e-6 or per_frame < 1:
+        raise ValueError(
+            f"lab: the plates' rate {plate_rate:g} Hz is not a whole multiple of the markers' "
+            f"{rate:g} Hz"
+        )
+    written: dict[str, Path] = {}
+    if "tsv" in formats:
+        walk_tsv, static_tsv = (folder / name for name in SKIN_FILES["tsv"])
+        written["tsv"] = _write_tsv(walk, walk_tsv, per_frame)
+        written["static_tsv"] = _write_tsv(static, static_tsv, 1)
+    if "trc" in formats:
+        trc, mot, xml, static_trc = (folder / name for name in SKIN_FILES["trc"])
+        written["trc"] = write_trc(trc, walk.time, walk.markers, units="mm")
+        sides = {side: marker_set.plates[side] for side in SIDES}
+        written["mot"] = write_mot(
+            mot, {OPENSIM_PLATES[side]: walk.plates[name] for side, name in sides.items()}
+        )
+        written["grf_xml"] = write_grf_mapping(
+            xml, {prefix: side for side, prefix in OPENSIM_PLATES.items()}, mot.name
+        )
+        written["static_trc"] = write_trc(static_trc, static.time, static.markers, units="mm")
+    if "c3d" in formats:
+        walk_c3d, static_c3d = (folder / name for name in SKIN_FILES["c3d"])
+        order = sorted(SIDES, key=lambda side: marker_set.plates[side])  # FP1, FP2
+        plates = {
+            marker_set.plates[side]: _z_up_plate(walk.plates[marker_set.plates[side]])
+            for side in order
+        }
+        written["c3d"] = write_c3d(walk_c3d, walk.time, _z_up(walk.markers), plates, plate_rate)
+        written["static_c3d"] = write_c3d(static_c3d, static.time, _z_up(static.markers), {}, rate)
+    return written
+
+
+def _z_up(markers: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
+    """(forward, up, right) -> a Z-up lab's (forward, left, up)."""
+    return {name: xyz[:, [0, 2, 1]] * np.array([1.0, -1.0, 1.0]) for name, xyz in markers.items()}
+
+
+def _z_up_plate(plate: PlateSeries) -> PlateSeries:
+    flip = np.array([1.0, -1.0, 1.0])
+    return PlateSeries(
+        plate.time,
+        plate.force[:, [0, 2, 1]] * flip,
+        plate.point[:, [0, 2, 1]] * flip,
+        plate.free_torque[:, [0, 2, 1]] * flip,
+    )
+
+
+def _write_tsv(record: LabRecord, path: Path, per_frame: int) -> Path:
+    """A 3-D record as a tab export: markers in (forward, up, right), each plate's forward
+    and vertical force and moment about the origin at the markers' times."""
+    columns: dict[str, Any] = {"TimeStamp": record.time}
+    for name, xyz in record.markers.items():
+        for k, axis in enumerate(("PosX", "PosY", "PosZ")):
+            columns[f"{name}.{axis}"] = xyz[:, k]
+    for name, plate in record.plates.items():
+        force = plate.force[::per_frame][: record.time.size]
+        point = plate.point[::per_frame][: record.time.size]
+        moment = np.nan_to_num(point[:, 0] * force[:, 1] - point[:, 1] * force[:, 0])
+        for channel, values in zip(PLATE_CHANNELS, (force[:, 0], force[:, 1], moment), strict=True):
+            columns[f"{name}.{channel}"] = values
+    columns.update(record.columns)
+    partial = path.with_name(f".{path.name}.part")
+    pd.DataFrame(columns).to_csv(partial, sep="\t", index=False, float_format="%.6f")
+    partial.replace(path)
+    return path

@@ -189,8 +189,8 @@ def write_c3d(
         Name -> array (N, 3) [m] in (forward, left, up).
     plates : dict
         Name -> :class:`PlateSeries` in the same axes, sampled at ``analog_rate`` over the
-        markers' span (an integer number of samples per frame); the centre of pressure on
-        the floor (up = 0). Plate ``k`` lies across ``y`` from ``(-1)^(k+1)`` (0 to 500 mm):
+        markers' span (an integer number of samples per frame; the last frame's samples past
+        the plate's last hold its last value); the centre of pressure on the floor (up = 0). Plate ``k`` lies across ``y`` from ``(-1)^(k+1)`` (0 to 500 mm):
         the first on the right.
     analog_rate : float
         [Hz].
@@ -225,8 +225,12 @@ def write_c3d(
         lateral = np.nanmedian(plate.point[:, 1]) if np.isfinite(plate.point[:, 1]).any() else 0.0
         centre = np.array([0.0, 1000.0 * lateral, 0.0])
         corners[:, :, k] = _corners(centre).T
-        samples = plate.force.shape[0]
-        analogs[0, 6 * k : 6 * k + 6, :samples] = _type2_channels(plate, centre).T
+        # a frame's analog samples run to the next frame: the last frame's past the
+        # plate's last sample hold it (zeros there would read as a foot lifted at the end)
+        channels = _type2_channels(plate, centre)[: analogs.shape[2]]
+        analogs[0, 6 * k : 6 * k + 6, :] = np.pad(
+            channels, ((0, analogs.shape[2] - len(channels)), (0, 0)), mode="edge"
+        ).T
     c3d["data"]["analogs"] = analogs
     c3d.add_parameter("FORCE_PLATFORM", "USED", len(plates))
     _integers(c3d, "TYPE", [2] * len(plates), [len(plates)])
