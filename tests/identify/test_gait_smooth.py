@@ -9,6 +9,7 @@ import pytest
 
 from colloc.cli import main
 from colloc.data.columns import JOINT_ANGLE_COLUMNS, TORQUE_COLUMNS
+from colloc.data.trial import read_trial
 from colloc.gait.metadata import STATE_SIGNAL_NAMES
 from colloc.identify.gait_smooth import RESIDUAL_COLUMNS, smooth_trial
 
@@ -60,8 +61,16 @@ def test_a_second_run_keeps_the_first_unless_told(smoothed, capsys):
 
 
 def test_less_than_a_stride_and_bad_options_are_refused_by_name(tmp_path, capsys):
-    with pytest.raises(ValueError, match=r"at least one whole stride .* found [01] right heel"):
+    with pytest.raises(
+        ValueError, match=r"at least one whole stride .* found [01] right heel"
+    ) as refused:
         smooth_trial(FIXTURE, duration=0.5)
+    # how long a part would do, from the trial's own strides
+    strides = np.diff(read_trial(FIXTURE).right_heel_strikes)
+    assert (
+        f"strides last {np.median(strides):.2f} s (median), so a part of "
+        f"{2 * strides.max():.2f} s (two of its longest) holds one" in str(refused.value)
+    )
     with pytest.raises(ValueError, match="start: expected seconds >= 0.*window_strides"):
         smooth_trial(FIXTURE, start=-1.0, window_strides=0)
     code = main(["gait", "smooth", str(tmp_path / "none"), "--out", str(tmp_path / "o")])

@@ -148,10 +148,17 @@ def smooth_trial(
     )
     if rows.size < 2 or inside.size < 2:
         part = "to the end" if duration is None else f"for {duration:g} s"
+        strides = np.diff(strikes)
+        needs = (
+            f"; this walk's strides last {np.median(strides):.2f} s (median), so a part of "
+            f"{2 * np.max(strides):.2f} s (two of its longest) holds one wherever it starts"
+            if strides.size
+            else "; the trial has fewer than two right heel strikes, so no part of it does"
+        )
         raise ValueError(
             f"smooth_trial: expected at least one whole stride (two right heel strikes) in "
             f"the part smoothed (from {start:g} s {part}), found {inside.size} right heel "
-            f"strike(s) in {rows.size} samples"
+            f"strike(s) in {rows.size} samples{needs}"
         )
     if window_strides is None:
         windows = [(0, rows.size)]
