@@ -185,7 +185,7 @@ def write_mot(path: str | os.PathLike[str], plates: dict[str, PlateSeries]) -> P
         END_HEADER,
         "\t".join(names),
     ]
-    rows = ["\t".join(f"{v:.9g}" for v in row) for row in data]
+    rows = ["\t".join(f"{v:.12g}" for v in row) for row in data]
     partial = path.with_name(f".{path.name}.part")
     partial.write_text("\n".join(header + rows) + "\n", encoding="utf-8")
     partial.replace(path)
