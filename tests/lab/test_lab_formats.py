@@ -4,6 +4,7 @@ each kind of file against the same walk's tab export."""
 
 from __future__ import annotations
 
+import warnings
 from pathlib import Path
 
 import numpy as np
@@ -368,3 +369,16 @@ def test_left_and_right_markers_swapped_are_refused(export, tmp_path):
     }
     message = _refusal(LabExport(export.time, swapped, export.plates, export.columns), tmp_path)
     assert "the plates or the markers' sides are swapped" in message
+
+
+def test_a_glitch_of_1e300_m_is_a_spike_not_an_overflow(export, tmp_path):
+    spiked = {n: xy.copy() for n, xy in export.markers.items()}
+    spiked["RLM"][200, 0] = 1e300
+    path = write_lab_export(
+        LabExport(export.time, spiked, export.plates, export.columns), tmp_path / "s.tsv"
+    )
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # a RuntimeWarning of numpy's is not a message
+        result = trial_from_lab(path, LabSettings(*SUBJECT, belt_speed=1.2))
+    assert any("marker RLM: 1 sample(s) jump away and back faster" in n for n in result.notes)
+    assert np.isfinite(result.trial.signals["right_ankle_angle"]).all()

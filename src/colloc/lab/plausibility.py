@@ -53,9 +53,10 @@ def spikes(markers: dict[str, np.ndarray], rate: float) -> dict[str, np.ndarray]
     found = {}
     limit = MAX_MARKER_SPEED / rate
     for name, xy in markers.items():
-        before = np.linalg.norm(xy[1:-1] - xy[:-2], axis=1)
-        after = np.linalg.norm(xy[2:] - xy[1:-1], axis=1)
-        across = np.linalg.norm(xy[2:] - xy[:-2], axis=1)
+        # hypot, not a norm of squares: a glitch of 1e300 m is a spike, not an overflow
+        before = np.hypot(*(xy[1:-1] - xy[:-2]).T)
+        after = np.hypot(*(xy[2:] - xy[1:-1]).T)
+        across = np.hypot(*(xy[2:] - xy[:-2]).T)
         jump = (before > limit) & (after > limit) & (across < limit)
         if jump.any():
             found[name] = np.flatnonzero(jump) + 1
