@@ -32,7 +32,7 @@ from colloc.lab import (
     zero_lag_lowpass,
 )
 from colloc.models.gait2d_params import load_parameters
-from colloc.plot.gait_animation import StickFigureGeometry, stick_figure_points
+from colloc.models.gait2d_points import StickFigureGeometry, stick_figure_points
 
 RECORDS = Path(__file__).resolve().parents[1] / "data" / "records" / "gatk-leg2d-sagittal-gait-3s"
 MASS = 67.2  # subject 7 of the HBM paper (leg2d's test)

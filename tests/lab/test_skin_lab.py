@@ -25,7 +25,7 @@ from colloc.lab.synthetic import LabNoise
 from colloc.lab.synthetic_skin import skin_lab_from_record
 from colloc.lab.writers import write_lab_files, write_skin_lab
 from colloc.models.gait2d_params import load_parameters
-from colloc.plot.gait_animation import StickFigureGeometry, stick_figure_points
+from colloc.models.gait2d_points import StickFigureGeometry, stick_figure_points
 
 SUBJECT = (75.0, 1.8)
 #: The session walk's plate samples per marker sample (tests/lab/conftest.py).

@@ -29,9 +29,10 @@ import numpy as np
 from colloc.data.columns import JOINT_ANGLE_COLUMNS
 from colloc.data.trial import replace_refusal
 from colloc.models.gait2d import CONTACT_POINT_NAMES
+from colloc.models.gait2d_points import StickFigureGeometry
 from colloc.plot.common import save_figure
 from colloc.plot.gait import plot_contact_forces, plot_joint_angles_by_cycle
-from colloc.plot.gait_animation import StickFigureGeometry, animate_gait
+from colloc.plot.gait_animation import animate_gait
 from colloc.store.ids import package_versions
 
 TRIAL_DIR = "trial"

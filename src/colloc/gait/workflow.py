@@ -71,7 +71,7 @@ from colloc.gait.strikes import strike_phase
 from colloc.gait.trials import record_to_trial
 from colloc.gait.walking_cycle import WalkingCycle
 from colloc.models.gait2d_params import load_parameters
-from colloc.plot.gait_animation import StickFigureGeometry
+from colloc.models.gait2d_points import StickFigureGeometry
 
 Progress = Callable[[str, str], None]
 

@@ -30,7 +30,7 @@ import numpy as np
 
 from colloc.data.columns import SIDES
 from colloc.lab.hip_centre import HARRINGTON
-from colloc.plot.gait_animation import StickFigureGeometry, stick_figure_points
+from colloc.models.gait2d_points import StickFigureGeometry, stick_figure_points
 
 #: Distance [m] between the anterior superior iliac spines.
 PELVIS_WIDTH = 0.24

@@ -23,7 +23,7 @@ from colloc.data.columns import SIDES
 from colloc.lab.exports import MARKER_AXES, PLATE_CHANNELS, LabExport
 from colloc.lab.markers import DEFAULT_MARKER_SET, MarkerSet
 from colloc.models.gait2d_params import Gait2DParameters
-from colloc.plot.gait_animation import StickFigureGeometry, stick_figure_points
+from colloc.models.gait2d_points import StickFigureGeometry, stick_figure_points
 
 #: The export's columns of the (split-belt) treadmill's speed [m/s].
 BELT_SPEED_COLUMNS: tuple[str, ...] = ("LeftBeltSpeed", "RightBeltSpeed")

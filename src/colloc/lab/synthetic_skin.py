@@ -24,7 +24,7 @@ from colloc.lab.record import LabRecord, PlateSeries
 from colloc.lab.skin_markers import skin_marker_positions, standing_pose
 from colloc.lab.synthetic import BELT_SPEED_COLUMNS, LabNoise
 from colloc.models.gait2d_params import Gait2DParameters
-from colloc.plot.gait_animation import StickFigureGeometry, stick_figure_points
+from colloc.models.gait2d_points import StickFigureGeometry, stick_figure_points
 
 #: Distance [m] of each plate's centre of pressure from the sagittal plane, to its side.
 PLATE_LATERAL = 0.1
