@@ -22,7 +22,8 @@ from colloc.data.columns import (
     TRUNK_RATE_COLUMNS,
     normalize_unit,
 )
-from colloc.data.trial import Trial, detect_delimiter, read_trial
+from colloc.data.text_tables import detect_delimiter
+from colloc.data.trial import Trial, read_trial
 
 FIXTURE = Path(__file__).resolve().parent / "fixtures" / "gait_trial_tsv"
 

@@ -19,21 +19,11 @@ from typing import Any
 DESCRIPTION = "The ``colloc`` command: the pendulum study and the results database."
 
 
-def _exact_option_names(parser: argparse.ArgumentParser) -> None:
-    """Refuse abbreviated option names in ``parser`` and every subcommand's parser:
-    ``--numlink 2`` must not silently mean ``--numlinks 2`` (nor, in a batch file, slip a
-    banned ``no-store`` past its check as ``no-s``)."""
-    parser.allow_abbrev = False
-    for action in parser._actions:
-        if isinstance(action, argparse._SubParsersAction):
-            for child in action.choices.values():
-                _exact_option_names(child)
-
-
 def build_parser() -> argparse.ArgumentParser:
     """The argument parser of the ``colloc`` command."""
     from colloc.cli import cache, gait, pendulum, runs
     from colloc.cli.batch import add_parser as add_batch_parser
+    from colloc.cli.common import exact_option_names
     from colloc.store import DEFAULT_URL
 
     parser = argparse.ArgumentParser(prog="colloc", description=DESCRIPTION)
@@ -43,7 +33,7 @@ def build_parser() -> argparse.ArgumentParser:
     add_batch_parser(sub, DEFAULT_URL)
     cache.add_parser(sub)
     runs.add_parser(sub, DEFAULT_URL)
-    _exact_option_names(parser)
+    exact_option_names(parser)
     return parser
 
 
@@ -87,6 +77,11 @@ def main(argv: Sequence[str] | None = None) -> int:
         # a kill (SIGTERM) runs the same clean-ups as Ctrl-C: no .part files, no half results
         previous = signal.signal(signal.SIGTERM, _raise_terminated)
     try:
+        if args.command == "pendulum" and args.repeat is not None:
+            # N seeds of the pendulum are a batch: the batch group runs them
+            from colloc.cli.batch import pendulum_repeat
+
+            return pendulum_repeat(args)
         return _command(args.command)(args)
     except _Terminated:
         print("terminated; nothing half-written was kept", file=sys.stderr)

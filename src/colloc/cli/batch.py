@@ -20,8 +20,14 @@ from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
 
-from colloc.cli import build_parser
-from colloc.cli.common import ALLOW_OTHER_TABLES_HELP, cluster_flags, path_arg, report_problems
+from colloc.cli import gait, pendulum
+from colloc.cli.common import (
+    ALLOW_OTHER_TABLES_HELP,
+    cluster_flags,
+    exact_option_names,
+    path_arg,
+    report_problems,
+)
 from colloc.cli.gait import gait_identify_checks, gait_simulate_checks
 from colloc.cli.pendulum import pendulum_checks
 
@@ -143,6 +149,18 @@ def _parse(
             return None, message
 
 
+def _entries_parser() -> argparse.ArgumentParser:
+    """The parser of a batch's entries: the commands a batch runs, as ``colloc`` parses them."""
+    from colloc.store import DEFAULT_URL
+
+    parser = argparse.ArgumentParser(prog="colloc")
+    sub = parser.add_subparsers(dest="command", required=True)
+    pendulum.add_parser(sub, DEFAULT_URL)
+    gait.add_parser(sub, DEFAULT_URL)
+    exact_option_names(parser)
+    return parser
+
+
 def build_tasks(entries: list[Any]) -> tuple[list[Any], list[str]]:
     """Tasks from a batch file's entries, and every problem of every entry.
 
@@ -166,7 +184,7 @@ def build_tasks(entries: list[Any]) -> tuple[list[Any], list[str]]:
     outs: dict[Path, int] = {}  # their output folders
     writes: dict[Path, int] = {}
     keys: dict[str, int] = {}  # entries by the run they compute
-    parser = build_parser()
+    parser = _entries_parser()
     for entry in entries:
         where = entry.where()
         forbidden = [k for k in entry.options if k in BATCH_LEVEL]
@@ -353,16 +371,14 @@ def _batch_run(args: argparse.Namespace) -> int:
     return 1 if outcome.count("failed") else 0
 
 
-def pendulum_repeat(args: argparse.Namespace, settings: Any, problems: list[str]) -> int:
+def pendulum_repeat(args: argparse.Namespace) -> int:
     """``colloc pendulum ... --repeat N``: N seeds as one batch, then the per-gain report.
 
     Parameters
     ----------
     args : argparse.Namespace
-    settings : PendulumSettings
-        Of the first seed.
-    problems : list of str
-        Found by :func:`colloc.cli.pendulum.pendulum_checks`.
+        ``colloc pendulum``'s, with ``repeat`` set; checked by
+        :func:`colloc.cli.pendulum.pendulum_checks` (the first seed's settings).
 
     Returns
     -------
@@ -372,6 +388,7 @@ def pendulum_repeat(args: argparse.Namespace, settings: Any, problems: list[str]
     from colloc.batch.report import pendulum_table, write_batch_report
     from colloc.batch.tasks import Task, task_key
 
+    settings, problems = pendulum_checks(args)
     unsupported = [
         f"{flag}: not with --repeat (the batch report goes to --out)"
         for flag, given in (("-p/--plot", args.plot), ("-a/--animate", args.animate))

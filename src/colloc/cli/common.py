@@ -258,3 +258,20 @@ def cluster_flags(parser: argparse.ArgumentParser) -> None:
         help="run on a running Dask cluster instead (e.g. tcp://host:8786); its workers must "
         "reach the database and the files",
     )
+
+
+def exact_option_names(parser: argparse.ArgumentParser) -> None:
+    """Refuse abbreviated option names in ``parser`` and every subcommand's parser:
+    ``--numlink 2`` must not silently mean ``--numlinks 2`` (nor, in a batch file, slip a
+    banned ``no-store`` past its check as ``no-s``).
+
+    Parameters
+    ----------
+    parser : argparse.ArgumentParser
+        Changed in place.
+    """
+    parser.allow_abbrev = False
+    for action in parser._actions:
+        if isinstance(action, argparse._SubParsersAction):
+            for child in action.choices.values():
+                exact_option_names(child)

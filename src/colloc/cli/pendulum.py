@@ -202,10 +202,6 @@ def run(args: argparse.Namespace) -> int:
     from colloc.identify.summaries import write_json_atomic
 
     settings, problems = pendulum_checks(args)
-    if args.repeat is not None:
-        from colloc.cli.batch import pendulum_repeat
-
-        return pendulum_repeat(args, settings, problems)
     if common.report_problems("colloc pendulum", problems):
         return 2
     needs = settings.estimated_needs()

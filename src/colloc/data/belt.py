@@ -9,7 +9,7 @@ import pandas as pd
 from numpy.typing import ArrayLike
 from scipy.integrate import cumulative_trapezoid
 
-from colloc.data.trial import read_table
+from colloc.data.text_tables import read_table
 
 _TIME_HEADER = "Timestamp"
 _VELOCITY_HEADER = "Belt Velocity"

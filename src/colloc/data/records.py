@@ -10,7 +10,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from colloc.data.trial import not_utf8, read_table
+from colloc.data.text_tables import not_utf8, read_table
 
 # Header names in Winter_normal.csv (stripped, lower case) -> WinterGaitCycle field.
 _WINTER_COLUMNS: dict[str, str] = {

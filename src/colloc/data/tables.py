@@ -26,6 +26,7 @@ import numpy as np
 import pandas as pd
 
 from colloc.data.columns import SIDES, TIME_COLUMN
+from colloc.data.text_tables import read_table
 
 #: Names of the tables a trial may carry (each written as ``<name>.csv``).
 TABLE_NAMES: tuple[str, ...] = ("markers", "plates")
@@ -126,8 +127,6 @@ def write_tables(directory: Path, tables: Mapping[str, pd.DataFrame]) -> None:
 
 def read_tables(directory: Path, problems: list[str]) -> dict[str, pd.DataFrame]:
     """The tables a trial folder holds (none is required); problems are appended."""
-    from colloc.data.trial import read_table
-
     out = {}
     for name in TABLE_NAMES:
         path = directory / f"{name}.csv"

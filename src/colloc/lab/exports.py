@@ -24,7 +24,7 @@ import numpy as np
 import pandas as pd
 
 from colloc.data.checks import DEFAULT_SAMPLING_TOLERANCE, TrialError
-from colloc.data.trial import detect_delimiter, not_utf8
+from colloc.data.text_tables import detect_delimiter, not_utf8
 
 #: Names accepted for the time stamp column (compared without case).
 TIME_COLUMN_NAMES: tuple[str, ...] = ("timestamp", "time", "time stamp")
