@@ -165,6 +165,7 @@ def test_the_trials_example_recovers_shared_and_own_parameters():
         assert f"{name:>3} = {estimate:9.5f} +/- {error:.5f}" in page, name
 
 
+@pytest.mark.slow  # 51 s: the docs example run whole; benchmarks/slow_tests.py runs it
 def test_the_unknown_input_example_recovers_the_parameters_and_the_force(tmp_path):
     sys.path.insert(0, str(DOCS / "examples"))
     try:

@@ -12,6 +12,7 @@ SymPy's explicit form (``mass_matrix_full``, ``forcing_full``) of the same plant
 from __future__ import annotations
 
 import numpy as np
+import pytest
 import sympy as sm
 import sympy.physics.mechanics as me
 from scipy.integrate import solve_ivp
@@ -93,6 +94,7 @@ def simulate(kane: me.KanesMethod, K: np.ndarray) -> np.ndarray:
     return solve_ivp(rhs, (0, 20), np.zeros(4), t_eval=TIMES, rtol=1e-10, atol=1e-11).y
 
 
+@pytest.mark.slow  # 58 s: the gallery example run whole; benchmarks/slow_tests.py runs it
 def test_eight_gains_from_noisy_joint_angles_within_their_standard_errors():
     kane = standing_body()
     plant = colloc.Model.from_kane(

@@ -280,6 +280,7 @@ def test_records_sharing_the_controller_keep_their_lags_inside_and_add_up(design
         )
 
 
+@pytest.mark.slow  # 156 s: three identifications of the fixture, one on two Dask workers; benchmarks/slow_tests.py runs it
 def test_windows_of_whole_strides_smooth_alone_and_share_the_controller(tmp_path, capsys):
     """``--window-strides 2`` on the fixture: each window of two strides (from a right heel
     strike) is smoothed alone with its own start; together they hold every node of the fit

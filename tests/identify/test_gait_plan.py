@@ -122,6 +122,7 @@ def planned(tmp_path_factory):
     return code, out
 
 
+@pytest.mark.slow  # 98 s: the plan smooths the whole fixture; benchmarks/slow_tests.py runs it
 def test_a_pilots_design_is_its_smoothed_states(planned):
     """On the noise-free fixture the smoother's states are the record's: the bound the plan
     computes from them is the one from the recorded states, to the smoother's small error
@@ -137,6 +138,7 @@ def test_a_pilots_design_is_its_smoothed_states(planned):
         plan_record(FIXTURE, target_k=0.2, states=np.zeros((3, 18)))
 
 
+@pytest.mark.slow  # shares the 98 s plan above; benchmarks/slow_tests.py runs it
 def test_the_command_writes_the_plan_and_refuses_what_it_cannot_plan(planned, tmp_path, capsys):
     code, out = planned
     assert code == 0

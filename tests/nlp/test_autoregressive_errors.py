@@ -82,6 +82,7 @@ def test_under_white_noise_the_errors_agree_with_kkt_on_average():
     assert np.all((spread > 0.7) & (spread < 1.35))
 
 
+@pytest.mark.slow  # 68 s: a Monte Carlo of fits under a ringing disturbance; benchmarks/slow_tests.py runs it
 @pytest.mark.filterwarnings("ignore::UserWarning")
 def test_a_ringing_unmodelled_disturbance_is_in_the_error_bar():
     truth = np.array([TRUE[c], TRUE[k]])
