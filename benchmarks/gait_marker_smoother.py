@@ -9,7 +9,7 @@ inverse kinematics and dynamics.
     colloc gait trial-from-lab SIM/lab-export.tsv --mass 75 --height 1.8 \
         --belt-speed LeftBeltSpeed --out LAB
     python benchmarks/gait_marker_smoother.py --trial LAB --truth SIM/trial \
-        --duration 30 60 120 [--no-plates] [--repeat 3]
+        --duration 30 60 120 [--no-plates] [--window-strides 4] [--repeat 3]
 
 Each case runs in a fresh process (the peak RSS is its own) and appends one JSON record to
 ``benchmarks/results/gait_marker_smoother.json``. Quote medians over ``--repeat``: the
@@ -31,11 +31,17 @@ RESULTS = Path(__file__).parent / "results" / "gait_marker_smoother.json"
 
 
 def one_case(
-    trial_dir: Path, truth_dir: Path | None, start: float, duration: float, plates: bool
+    trial_dir: Path,
+    truth_dir: Path | None,
+    start: float,
+    duration: float,
+    plates: bool,
+    window_strides: int | None = None,
 ) -> dict:
     import numpy as np
 
     from colloc.data.columns import JOINT_ANGLE_COLUMNS, TORQUE_COLUMNS
+    from colloc.data.split import stride_windows
     from colloc.data.trial import read_trial
     from colloc.gait.orbit import GaitDynamics
     from colloc.identify.gait_markers import marker_smoother, tracking_fit
@@ -47,33 +53,55 @@ def one_case(
     t = trial.time - trial.time[0]
     rows = np.flatnonzero((t >= start - 1e-9) & (t <= start + duration + 1e-9))
     dynamics = GaitDynamics.build(load_parameters(float(meta["body_mass"]), float(meta["height"])))
-    smoother, facts = marker_smoother(dynamics, trial, rows, use_plates=plates)
     setup = time.perf_counter() - clock
-    result = smoother.run()
-    solve = sum(s.seconds for s in result.stages)
+    windows = (
+        [(0, rows.size)]
+        if window_strides is None
+        else stride_windows(trial.time[rows], trial.right_heel_strikes, window_strides)
+    )
+    solve = build = 0.0
+    iterations, successes, fits, stages = 0, [], [], []
+    times, states, torques = [], [], []
+    for first, stop in windows:
+        clock = time.perf_counter()
+        smoother, facts = marker_smoother(dynamics, trial, rows[first:stop], use_plates=plates)
+        setup += time.perf_counter() - clock
+        result = smoother.run()
+        window_solve = sum(s.seconds for s in result.stages)
+        solve += window_solve
+        build += result.seconds - window_solve
+        iterations += int(sum(s.iterations for s in result.stages))
+        successes.append(bool(result.stages[-1].success))
+        stages.append([s.describe() for s in result.stages])
+        fits.append(tracking_fit(result.problem, result.z))
+        times.append(result.times)
+        states.append(result.states)
+        torques.append(result.torques)
     record = {
         "trial": str(trial_dir),
         "start": start,
         "duration": float(trial.time[rows[-1]] - trial.time[rows[0]]),
         "plates": plates,
+        "window_strides": window_strides,
+        "windows": len(windows),
         "setup_seconds": setup,
-        "build_seconds": result.seconds - solve,
+        "build_seconds": build,
         "solve_seconds": solve,
-        "seconds_per_record_second": (setup + result.seconds) / duration,
-        "iterations": int(sum(s.iterations for s in result.stages)),
-        "stages": [s.describe() for s in result.stages],
-        "success": bool(result.stages[-1].success),
-        "size": result.size,
+        "seconds_per_record_second": (setup + build + solve) / duration,
+        "iterations": iterations,
+        "stages": stages,
+        "success": all(successes),
         "peak_rss_mb": peak_rss_mb(),
-        "fit": tracking_fit(result.problem, result.z),
+        "fit": fits,
         "noise": facts["noise"],
     }
     if truth_dir is not None:
         truth = read_trial(truth_dir)
+        node_times = np.concatenate(times)
 
         def at_nodes(columns: list[str]) -> np.ndarray:
             return np.column_stack(
-                [np.interp(result.times, truth.time, truth.signals[c]) for c in columns]
+                [np.interp(node_times, truth.time, truth.signals[c]) for c in columns]
             )
 
         true_angles = at_nodes(list(JOINT_ANGLE_COLUMNS))
@@ -83,15 +111,21 @@ def one_case(
         def rms(a: np.ndarray, b: np.ndarray) -> list[float]:
             return np.sqrt(np.mean((a - b) ** 2, axis=0)).tolist()
 
+        lab_angles = np.column_stack(
+            [np.interp(node_times, trial.time[rows], lab[c]) for c in JOINT_ANGLE_COLUMNS]
+        )
+        lab_torques = np.column_stack(
+            [np.interp(node_times, trial.time[rows], lab[c]) for c in TORQUE_COLUMNS]
+        )
         record["angle_rms_deg"] = {
-            "marker_smoother": np.degrees(rms(result.states[:, 3:9], true_angles)).tolist(),
-            "inverse_kinematics_6hz": np.degrees(
-                rms(lab[list(JOINT_ANGLE_COLUMNS)].to_numpy(), true_angles)
+            "marker_smoother": np.degrees(
+                rms(np.concatenate(states)[:, 3:9], true_angles)
             ).tolist(),
+            "inverse_kinematics_6hz": np.degrees(rms(lab_angles, true_angles)).tolist(),
         }
         record["torque_rms_nm"] = {
-            "marker_smoother": rms(result.torques, true_torques),
-            "inverse_dynamics_6hz": rms(lab[list(TORQUE_COLUMNS)].to_numpy(), true_torques),
+            "marker_smoother": rms(np.concatenate(torques), true_torques),
+            "inverse_dynamics_6hz": rms(lab_torques, true_torques),
         }
         record["truth_note"] = (
             "the truth trial's angles carry its own measurement noise (0.25 deg) and its "
@@ -110,10 +144,23 @@ def main() -> None:
     parser.add_argument("--duration", type=float, nargs="+", default=[30.0])
     parser.add_argument("--repeat", type=int, default=1)
     parser.add_argument("--no-plates", action="store_true", help="track the markers alone")
+    parser.add_argument(
+        "--window-strides",
+        type=int,
+        default=None,
+        help="smooth in windows of N whole strides, as gait identify --window-strides",
+    )
     parser.add_argument("--one", action="store_true", help=argparse.SUPPRESS)
     args = parser.parse_args()
     if args.one:
-        record = one_case(args.trial, args.truth, args.start, args.duration[0], not args.no_plates)
+        record = one_case(
+            args.trial,
+            args.truth,
+            args.start,
+            args.duration[0],
+            not args.no_plates,
+            args.window_strides,
+        )
         print(json.dumps(record))
         return
     for duration in args.duration:
@@ -124,6 +171,8 @@ def main() -> None:
                 command += ["--truth", str(args.truth)]
             if args.no_plates:
                 command.append("--no-plates")
+            if args.window_strides is not None:
+                command += ["--window-strides", str(args.window_strides)]
             out = subprocess.run(command, capture_output=True, text=True, check=True)
             record = json.loads(out.stdout.strip().splitlines()[-1])
             append_record(RESULTS, record)
