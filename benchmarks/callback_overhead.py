@@ -37,7 +37,7 @@ import numpy as np
 from results_file import append_record
 
 from colloc.identify import PendulumSettings
-from colloc.identify.pendulum import run_pendulum
+from colloc.identify.pendulum.workflow import run_pendulum
 from colloc.solve import ipopt
 from colloc.solve.ipopt_capi import CProblem
 

@@ -36,9 +36,9 @@ def one_case(
     process_noise: str | None = None,
 ) -> dict:
     """Run one identification here and return its summary (no store, no figures)."""
-    from colloc.identify.gait import identify_gait
-    from colloc.identify.gait_outputs import gait_run_id, gait_summary
-    from colloc.identify.gait_settings import GaitIdentifySettings
+    from colloc.identify.gait.outputs import gait_run_id, gait_summary
+    from colloc.identify.gait.settings import GaitIdentifySettings
+    from colloc.identify.gait.workflow import identify_gait
 
     settings = GaitIdentifySettings(
         trial=trial,

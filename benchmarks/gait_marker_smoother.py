@@ -1,5 +1,5 @@
 """Benchmark the smoother that tracks a lab's raw markers and plates
-(:func:`colloc.identify.gait_markers.marker_smoother`): per second of record, the wall time
+(:func:`colloc.identify.gait.markers.marker_smoother`): per second of record, the wall time
 split into set-up (model and data), build (the collocation problems) and solve (IPOPT, every
 stage), the IPOPT iterations and the peak memory; with ``--truth`` (the simulated trial the
 lab export was made from) the smoothed angles and torques against it, beside the lab's 6 Hz
@@ -44,7 +44,7 @@ def one_case(
     from colloc.data.split import stride_windows
     from colloc.data.trial import read_trial
     from colloc.gait.orbit import GaitDynamics
-    from colloc.identify.gait_markers import marker_smoother, tracking_fit
+    from colloc.identify.gait.markers import marker_smoother, tracking_fit
     from colloc.models.gait2d_params import load_parameters
 
     clock = time.perf_counter()

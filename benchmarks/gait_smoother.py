@@ -1,4 +1,4 @@
-"""Benchmark the gait smoother (:mod:`colloc.identify.gait_smoother`) on a trial window: wall
+"""Benchmark the gait smoother (:mod:`colloc.identify.gait.smoother`) on a trial window: wall
 time and iterations per stage, peak memory, and — given the noise-free twin of the trial
 (``colloc gait simulate`` with the same seed and ``--noise 0``) — the smoothed angles, rates
 and torques against the truth, with the direct least squares of the controller on the
@@ -45,7 +45,7 @@ def one_case(
     from colloc.gait.metadata import STATE_SIGNAL_NAMES
     from colloc.gait.orbit import GaitDynamics
     from colloc.identify.direct import fit_gain_schedule
-    from colloc.identify.gait_smoother import GaitSmoother
+    from colloc.identify.gait.smoother import GaitSmoother
     from colloc.models.gait2d_params import load_parameters
 
     clock = time.perf_counter()
@@ -56,7 +56,7 @@ def one_case(
         load_parameters(float(meta.get("body_mass", 75.0)), float(meta.get("height", 1.8)))
     )
     setup = time.perf_counter() - clock
-    from colloc.identify.gait_smoother_settings import SmootherSettings
+    from colloc.identify.gait.smoother_settings import SmootherSettings
     from colloc.transcription import Midpoint, Trapezoidal
 
     settings = SmootherSettings(scheme={"midpoint": Midpoint, "trapezoidal": Trapezoidal}[scheme]())
@@ -126,8 +126,8 @@ def one_case(
             "smoothed": errors(np.interp(at_t, result.times, phase), at_states, at_torques),
             "exact_states_measured_torques": errors(phase, S_true, T),
         }
-        from colloc.identify.gait_controller_fit import fit_schedule_with_errors, relative_spread
-        from colloc.identify.gait_settings import DEFAULT_INSTRUMENT_LAGS
+        from colloc.identify.gait.controller_fit import fit_schedule_with_errors, relative_spread
+        from colloc.identify.gait.settings import DEFAULT_INSTRUMENT_LAGS
 
         strides = np.searchsorted(trial.right_heel_strikes, result.times)
 

@@ -41,9 +41,9 @@ def one_case(
     fit_fraction: float = 0.75,
 ) -> dict:
     """One identification here; its summary with the workers' peak memory."""
-    from colloc.identify.gait import identify_gait
-    from colloc.identify.gait_outputs import gait_run_id, gait_summary
-    from colloc.identify.gait_settings import GaitIdentifySettings
+    from colloc.identify.gait.outputs import gait_run_id, gait_summary
+    from colloc.identify.gait.settings import GaitIdentifySettings
+    from colloc.identify.gait.workflow import identify_gait
 
     settings = GaitIdentifySettings(
         trial=trial,

@@ -31,7 +31,7 @@ def worker(num_links: int, scheme: str, cache_dir: str, hessian_evals: int) -> d
     import numpy as np
 
     from colloc.identify import PendulumSettings
-    from colloc.identify.pendulum import run_pendulum
+    from colloc.identify.pendulum.workflow import run_pendulum
 
     t_import = time.perf_counter() - t0
     settings = PendulumSettings(

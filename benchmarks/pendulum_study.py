@@ -22,7 +22,7 @@ def worker(num_links: int, guess: str, seed: int) -> dict:
     """One ``colloc pendulum`` run inside this process (started fresh by :func:`main`)."""
     t0 = time.perf_counter()
     from colloc.identify import PendulumSettings
-    from colloc.identify.pendulum import run_pendulum
+    from colloc.identify.pendulum.workflow import run_pendulum
 
     settings = PendulumSettings(
         num_links=num_links,

@@ -63,7 +63,7 @@ ROWS = tuple(METHODS)
 
 def noise_levels(num_links: int, duration: float) -> dict[str, float]:
     """A tenth of the controller's rms torque and of the cart force's rms (noise free)."""
-    from colloc.identify.pendulum import PendulumSettings, run_pendulum
+    from colloc.identify.pendulum.workflow import PendulumSettings, run_pendulum
 
     run = run_pendulum(PendulumSettings(num_links=num_links, duration=duration))
     K = run.known_gains.reshape(num_links, -1)
@@ -79,7 +79,7 @@ def calibrate(
 ) -> list[dict[str, Any]]:
     """Every method on every realisation, as one batch; the runs read back from the store."""
     from colloc.batch import Task, run_batch, task_key
-    from colloc.identify.pendulum import PendulumSettings
+    from colloc.identify.pendulum.workflow import PendulumSettings
     from colloc.store import RunStore
 
     tasks, where = [], []

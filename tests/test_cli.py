@@ -23,7 +23,7 @@ from PIL import Image
 
 from colloc.cli import main
 from colloc.identify import PendulumSettings, run_pendulum
-from colloc.identify.pendulum_outputs import pendulum_run_id
+from colloc.identify.pendulum.outputs import pendulum_run_id
 from colloc.store import RunStore
 
 SEED_GAINS = np.array([-4.71764346, 19.67083668, -3.69402157, 5.57114809])
@@ -501,7 +501,7 @@ def test_runs_list_shows_each_kind_in_its_own_columns(tmp_path, capsys):
     """Gait runs were shown in the pendulum's columns (num_links NaN, a max_rel_error of
     62206 from gains near zero); the gait columns were then keyed by a kind no run has
     ("gait", where gait identify stores "gait-identify"), so real gait runs still were."""
-    from colloc.identify.gait_outputs import KIND
+    from colloc.identify.gait.outputs import KIND
     from colloc.store import ParameterRow, RunRecord, RunStore
 
     db = f"sqlite:///{tmp_path / 'runs.db'}"

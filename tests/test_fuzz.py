@@ -24,7 +24,7 @@ from colloc.cli import build_parser
 from colloc.cli.pendulum import pendulum_checks
 from colloc.data.checks import TrialError
 from colloc.data.trial import read_trial
-from colloc.identify.pendulum_settings import PendulumSettings
+from colloc.identify.pendulum.settings import PendulumSettings
 
 FIXTURE = Path(__file__).resolve().parent / "data" / "fixtures" / "gait_trial_tsv"
 CASE_SECONDS = 5.0

@@ -77,8 +77,8 @@ def test_help_needs_neither_sympy_nor_casadi():
 
 
 def test_scheme_names_of_the_settings_are_the_workflow_schemes():
-    from colloc.identify.pendulum import SCHEMES
-    from colloc.identify.pendulum_settings import SCHEME_NAMES
+    from colloc.identify.pendulum.settings import SCHEME_NAMES
+    from colloc.identify.pendulum.workflow import SCHEMES
 
     assert tuple(SCHEMES) == SCHEME_NAMES
     names = [cls().name.lower() for cls in SCHEMES.values()]

@@ -109,7 +109,7 @@ def draw(folder: Path, trial: Trial, out: Path) -> Path:
 
 def smoothed(trial: Trial) -> pd.DataFrame:
     """The trial through the marker smoother (``colloc gait smooth``), as its table."""
-    from colloc.identify.gait_smooth import smooth_trial, smoothed_table
+    from colloc.identify.gait.smooth import smooth_trial, smoothed_table
 
     with tempfile.TemporaryDirectory() as folder:
         trial.write(Path(folder) / "trial")

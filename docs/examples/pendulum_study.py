@@ -15,7 +15,7 @@ import argparse
 from pathlib import Path
 
 from colloc.identify import PendulumSettings, run_pendulum
-from colloc.identify.pendulum_outputs import save_pendulum_plots
+from colloc.identify.pendulum.outputs import save_pendulum_plots
 from colloc.plot import plot_pendulum_cart, save_figure
 
 

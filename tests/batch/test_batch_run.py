@@ -15,7 +15,7 @@ import pytest
 
 from colloc.batch import Task, run_batch, task_key
 from colloc.cli import main
-from colloc.identify.pendulum_settings import PendulumSettings
+from colloc.identify.pendulum.settings import PendulumSettings
 from colloc.store import RunStore
 
 FIXTURE = Path(__file__).resolve().parents[1] / "data" / "fixtures" / "gait_trial_tsv"

@@ -129,7 +129,7 @@ def test_phase_normalised_strides_have_the_signals_known_shape():
 
 
 def test_a_drift_in_phase_is_not_an_error_between_mean_strides():
-    from colloc.identify.gait_walk import phase_difference
+    from colloc.identify.gait.walk import phase_difference
     from colloc.identify.validation import rms
 
     strikes = np.array([0.0, 1.1, 2.2, 3.3, 4.4, 5.5])

@@ -17,7 +17,7 @@ from sympy.physics.mechanics import dynamicsymbols
 
 from colloc.cli import main
 from colloc.control.gain_scheduled import GainScheduled
-from colloc.identify.gait_controller_fit import fit_schedule_with_errors, relative_spread
+from colloc.identify.gait.controller_fit import fit_schedule_with_errors, relative_spread
 
 FIXTURE = Path(__file__).parent / "data" / "gait_trial_p20"
 
@@ -233,7 +233,7 @@ def test_the_smoother_fit_runs_end_to_end_with_its_bounds_and_errors(tmp_path):
         for n in summary["notes"]
     )
     # the fixture walked without motor noise: its bars are too narrow, and that is said
-    from colloc.identify.gait_smoother_fit import ZERO_MOTOR_NOISE_NOTE
+    from colloc.identify.gait.smoother_fit import ZERO_MOTOR_NOISE_NOTE
 
     assert ZERO_MOTOR_NOISE_NOTE in summary["notes"]
     # the schedule is not pinned here, so its held-out VAF moves with round-off: a start

@@ -11,8 +11,8 @@ import yaml
 
 from colloc.cli import main
 from colloc.gait.closed_loop import simulate_walking
-from colloc.identify.gait_read import read_gait_data
-from colloc.identify.gait_settings import GaitIdentifySettings
+from colloc.identify.gait.read import read_gait_data
+from colloc.identify.gait.settings import GaitIdentifySettings
 
 FIXTURE = Path(__file__).parent / "data" / "gait_trial_p20"
 ARGS = ["--phase", "controller", "--fit-fraction", "0.6", "--max-iter", "0", "--no-plots"]
@@ -85,8 +85,8 @@ def test_the_figure_set_shows_the_schedules_with_bands_the_vaf_and_the_held_out_
 
 def test_the_fitted_angles_figure_says_whose_motion_it_shows(monkeypatch):
     """The smoother's fit has free torques: its figure must not read as the controller's."""
-    import colloc.identify.gait_outputs as outputs
-    from colloc.identify.gait_settings import METHODS
+    import colloc.identify.gait.outputs as outputs
+    from colloc.identify.gait.settings import METHODS
 
     assert set(outputs.FITTED_ANGLES) == set(METHODS)
     assert "not the controller's" in outputs.FITTED_ANGLES["smoother"][0]
@@ -96,8 +96,8 @@ def test_the_fitted_angles_figure_says_whose_motion_it_shows(monkeypatch):
 def test_each_joints_own_gains_are_picked_with_their_errors():
     from types import SimpleNamespace
 
-    from colloc.identify.gait import JOINT_NAMES
-    from colloc.identify.gait_outputs import _own_gains
+    from colloc.identify.gait.outputs import _own_gains
+    from colloc.identify.gait.workflow import JOINT_NAMES
 
     feedback = [f"{j}_{s}" for s in ("rate", "angle") for j in reversed(JOINT_NAMES)]
     K = np.arange(3 * 6 * 12, dtype=float).reshape(3, 6, 12)
@@ -125,7 +125,7 @@ def test_the_run_is_stored_with_its_own_kind_and_a_deterministic_id(identified, 
     frame = record.parameters_frame()
     assert len(frame) == summary["problem"]["parameters"]
     np.testing.assert_allclose(frame["identified"], frame["known"], atol=1e-6)
-    from colloc.identify.gait_outputs import gait_run_id
+    from colloc.identify.gait.outputs import gait_run_id
 
     class Run:  # the id depends on the settings and the data digest only
         settings = GaitIdentifySettings(
@@ -287,7 +287,7 @@ def test_a_missed_heel_strike_is_named(tmp_path):
 def test_the_subject_and_where_it_came_from_are_said():
     """A trial with an empty metadata.yaml was accepted and nothing said which body mass and
     height scaled the model."""
-    from colloc.identify.gait_read import subject_note
+    from colloc.identify.gait.read import subject_note
 
     assert subject_note({"body_mass": 62.0, "height": 1.65}) == (
         "subject: 62 kg, 1.65 m (the trial's metadata)"
@@ -362,7 +362,7 @@ def test_mean_signals_by_phase_is_the_hat_weighted_mean_cycle():
     from sympy.physics.mechanics import dynamicsymbols
 
     from colloc.control.gain_scheduled import GainScheduled
-    from colloc.identify.gait_estimate import (
+    from colloc.identify.gait.estimate import (
         ControllerEstimate,
         mean_cycle_torque,
         mean_signals_by_phase,
@@ -391,7 +391,7 @@ def test_t0_of_the_truth_is_the_measured_torque_on_the_mean_cycle(identified):
 
     from colloc.control.gain_scheduled import GainScheduled
     from colloc.data.columns import TORQUE_COLUMNS
-    from colloc.identify.gait_estimate import mean_signals_by_phase
+    from colloc.identify.gait.estimate import mean_signals_by_phase
 
     _, summary, _, figures = identified
     t0 = {name: np.asarray(v) for name, v in summary["T0"].items()}
@@ -440,7 +440,7 @@ def test_the_summary_says_which_subject_and_model_constants_the_fit_used(identif
 
 
 def test_the_mean_stride_figure_draws_each_walk_that_has_a_whole_stride():
-    from colloc.identify.gait_outputs import _mean_strides_figure
+    from colloc.identify.gait.outputs import _mean_strides_figure
 
     t = np.arange(0.0, 6.0, 0.01)
     strikes = np.array([0.2, 1.3, 2.4, 3.5, 4.6, 5.7])

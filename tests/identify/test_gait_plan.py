@@ -14,9 +14,9 @@ from colloc.cli import main
 from colloc.control.gain_scheduled import GainScheduled
 from colloc.data.columns import TORQUE_COLUMNS
 from colloc.data.trial import read_trial
-from colloc.identify.gait_controller_fit import fit_schedule_with_errors, relative_spread
-from colloc.identify.gait_plan import design_bounds, plan_record
-from colloc.identify.gait_read import gait_phase, measured_states, state_names
+from colloc.identify.gait.controller_fit import fit_schedule_with_errors, relative_spread
+from colloc.identify.gait.plan import design_bounds, plan_record
+from colloc.identify.gait.read import gait_phase, measured_states, state_names
 
 FIXTURE = Path(__file__).parent / "data" / "gait_trial_p20"
 

@@ -4,7 +4,7 @@ from pathlib import Path
 
 import pytest
 
-from colloc.identify.gait_settings import DEFAULT_TRACK, GaitIdentifySettings
+from colloc.identify.gait.settings import DEFAULT_TRACK, GaitIdentifySettings
 
 
 def test_defaults_are_valid_and_plain(tmp_path):

@@ -11,7 +11,7 @@ from colloc.cli import main
 from colloc.data.columns import JOINT_ANGLE_COLUMNS, TORQUE_COLUMNS
 from colloc.data.trial import read_trial
 from colloc.gait.metadata import STATE_SIGNAL_NAMES
-from colloc.identify.gait_smooth import RESIDUAL_COLUMNS, smooth_trial
+from colloc.identify.gait.smooth import RESIDUAL_COLUMNS, smooth_trial
 
 FIXTURE = Path(__file__).parent / "data" / "gait_trial_p20"
 

@@ -14,10 +14,10 @@ import pytest
 
 from colloc.data.columns import JOINT_ANGLE_COLUMNS, TORQUE_COLUMNS, TRUNK_COLUMNS
 from colloc.data.trial import read_trial
-from colloc.identify.gait_smoother import GaitSmoother
-from colloc.identify.gait_smoother_results import SmootherError, SmootherStage
-from colloc.identify.gait_smoother_settings import SmootherSettings
-from colloc.identify.gait_smoother_start import lowpass
+from colloc.identify.gait.smoother import GaitSmoother
+from colloc.identify.gait.smoother_results import SmootherError, SmootherStage
+from colloc.identify.gait.smoother_settings import SmootherSettings
+from colloc.identify.gait.smoother_start import lowpass
 
 FIXTURE = Path(__file__).parent / "data" / "gait_trial_p20"
 POSITIONS = list(TRUNK_COLUMNS + JOINT_ANGLE_COLUMNS)
@@ -281,7 +281,7 @@ def test_a_diverging_solve_is_stopped_at_its_objective_ceiling(window, dynamics,
     """A stage whose objective climbs past DIVERGED_OBJECTIVE_FACTOR times its start's is
     stopped at that iteration (not left to its iteration budget): with the factor at 1e-12
     every stage is, so the first backward-Euler solve ends at once, by the user's stop."""
-    import colloc.identify.gait_smoother as module
+    import colloc.identify.gait.smoother as module
 
     t, q, v, T = window
     monkeypatch.setattr(module, "DIVERGED_OBJECTIVE_FACTOR", 1e-12)
@@ -405,7 +405,7 @@ def test_measured_rates_are_tracked_with_their_own_noise_levels(window, dynamics
 
 
 def test_node_means_remove_the_odd_even_mode_and_keep_a_line():
-    from colloc.identify.gait_smoother_results import node_means
+    from colloc.identify.gait.smoother_results import node_means
 
     k = np.arange(11.0)
     line = np.column_stack([2.0 + 0.5 * k, -k])

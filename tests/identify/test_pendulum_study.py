@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 from colloc.identify import PendulumSettings, run_pendulum
-from colloc.identify.pendulum_outputs import pendulum_run_id
+from colloc.identify.pendulum.outputs import pendulum_run_id
 
 #: The gains printed by the seed's 1-link study (LQR with Q = I, R = I).
 SEED_GAINS = np.array([-4.71764346, 19.67083668, -3.69402157, 5.57114809])

@@ -11,7 +11,7 @@ import pytest
 from colloc.cli import main
 from colloc.data.columns import JOINT_ANGLE_COLUMNS, TORQUE_COLUMNS
 from colloc.gait.orbit import GaitDynamics
-from colloc.identify.gait_markers import marker_smoother, tracking_fit
+from colloc.identify.gait.markers import marker_smoother, tracking_fit
 from colloc.lab import LabSettings, lab_export_from_record, process_lab
 from colloc.models.gait2d_params import load_parameters
 
@@ -145,7 +145,7 @@ def test_bad_noise_levels_are_named_before_any_work(tmp_path, capsys):
 def test_early_weights_must_be_factors_of_tracked_outputs(lab_trial):
     from sympy.physics.mechanics import dynamicsymbols
 
-    from colloc.identify.gait_smoother import GaitSmoother
+    from colloc.identify.gait.smoother import GaitSmoother
 
     smoother, _ = marker_smoother(GaitDynamics.build(), lab_trial, np.arange(20))
     y = dynamicsymbols("plate_right_force_x")

@@ -207,14 +207,14 @@ def _entry(task: Task, batch_id: str | None, success: bool) -> tuple[str, int, s
 
 
 def _run_pendulum(task: Task, url: str | None, batch_id: str | None) -> TaskResult:
-    from colloc.identify.pendulum import run_pendulum
-    from colloc.identify.pendulum_outputs import (
+    from colloc.identify.pendulum.outputs import (
         pendulum_record,
         pendulum_run_id,
         pendulum_summary,
         save_pendulum_animation,
         save_pendulum_plots,
     )
+    from colloc.identify.pendulum.workflow import run_pendulum
     from colloc.identify.summaries import write_json_atomic
 
     run = run_pendulum(task.settings)
@@ -240,8 +240,8 @@ def _run_pendulum(task: Task, url: str | None, batch_id: str | None) -> TaskResu
 
 
 def _run_gait_identify(task: Task, url: str | None, batch_id: str | None) -> TaskResult:
-    from colloc.identify.gait import identify_gait
-    from colloc.identify.gait_outputs import gait_record, gait_run_id, gait_summary, save_gait_plots
+    from colloc.identify.gait.outputs import gait_record, gait_run_id, gait_summary, save_gait_plots
+    from colloc.identify.gait.workflow import identify_gait
     from colloc.identify.summaries import write_json_atomic
 
     run = identify_gait(task.settings)

@@ -80,7 +80,7 @@ def lags_arg(text: str) -> tuple[int, ...]:
     return lags
 
 
-#: ``--noise-levels`` names (colloc.identify.gait_settings.NOISE_LEVEL_NAMES, repeated here so
+#: ``--noise-levels`` names (colloc.identify.gait.settings.NOISE_LEVEL_NAMES, repeated here so
 #: that parsing imports nothing heavy) and their units.
 NOISE_LEVEL_UNITS = {"marker": "m", "force": "N", "moment": "N m", "torque_prior": "N m"}
 
@@ -116,7 +116,7 @@ def add_smoothing_options(parser: argparse.ArgumentParser, prefix: str = "") -> 
     """``--smooth-from`` and ``--noise-levels``: what the gait smoother tracks and the marker
     smoother's noise levels (``gait identify`` and ``gait smooth``); ``prefix`` leads each
     help text (e.g. the method the options belong to)."""
-    from colloc.identify.gait_settings import SMOOTH_SOURCES
+    from colloc.identify.gait.settings import SMOOTH_SOURCES
 
     parser.add_argument(
         "--smooth-from",

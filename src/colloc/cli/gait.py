@@ -126,7 +126,7 @@ def add_parser(sub: Any, default_url: str) -> None:
 
 def _identify_parser(gs: Any, default_url: str) -> None:
     """``colloc gait identify``: flags with the defaults of ``GaitIdentifySettings``."""
-    from colloc.identify import gait_settings as gi
+    from colloc.identify.gait import settings as gi
 
     d = gi.GaitIdentifySettings(trial=Path("."))
     idp = gs.add_parser(
@@ -310,7 +310,7 @@ def gait_identify_checks(
         Invalid settings and outputs that cannot be written (empty when the run may start;
         the trial itself is read, and checked, by the run).
     """
-    from colloc.identify.gait_settings import GaitIdentifySettings
+    from colloc.identify.gait.settings import GaitIdentifySettings
 
     settings = GaitIdentifySettings(
         trial=args.trial,
@@ -355,13 +355,13 @@ def _gait_identify(args: argparse.Namespace) -> int:
     settings, problems = gait_identify_checks(args)
     if report_problems("colloc gait identify", problems):
         return 2
-    from colloc.identify.gait import identify_gait
-    from colloc.identify.gait_outputs import (
+    from colloc.identify.gait.outputs import (
         gait_record,
         gait_run_id,
         gait_summary,
         save_gait_plots,
     )
+    from colloc.identify.gait.workflow import identify_gait
     from colloc.identify.summaries import write_json_atomic
 
     store = open_store(args)

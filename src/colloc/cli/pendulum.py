@@ -15,7 +15,7 @@ def add_parser(sub: Any, default_url: str) -> None:
     from pathlib import Path
 
     from colloc.identify.guesses import GAIN_GUESSES
-    from colloc.identify.pendulum_settings import (
+    from colloc.identify.pendulum.settings import (
         SCHEME_NAMES,
         UNCERTAINTY_METHODS,
         PendulumSettings,
@@ -159,7 +159,7 @@ def pendulum_checks(args: argparse.Namespace) -> tuple[Any, list[str]]:
         Invalid settings, options without effect, a run too big for this machine's memory,
         outputs that cannot be written (empty when the run may start).
     """
-    from colloc.identify.pendulum_settings import PendulumSettings
+    from colloc.identify.pendulum.settings import PendulumSettings
 
     settings = PendulumSettings(
         num_links=args.numlinks,
@@ -190,15 +190,15 @@ def pendulum_checks(args: argparse.Namespace) -> tuple[Any, list[str]]:
 
 def run(args: argparse.Namespace) -> int:
     """Run ``colloc pendulum``; the exit status."""
-    from colloc.identify.pendulum import run_pendulum
-    from colloc.identify.pendulum_outputs import (
+    from colloc.identify.pendulum.outputs import (
         pendulum_record,
         pendulum_run_id,
         pendulum_summary,
         save_pendulum_animation,
         save_pendulum_plots,
     )
-    from colloc.identify.pendulum_settings import LONG_RUN_SECONDS
+    from colloc.identify.pendulum.settings import LONG_RUN_SECONDS
+    from colloc.identify.pendulum.workflow import run_pendulum
     from colloc.identify.summaries import write_json_atomic
 
     settings, problems = pendulum_checks(args)

@@ -128,7 +128,7 @@ def run(args: argparse.Namespace) -> int:
     if report_problems("colloc gait plan", problems):
         return 2
     from colloc.gait.outputs import write_json
-    from colloc.identify.gait_plan import plan_for_subject, plan_record
+    from colloc.identify.gait.plan import plan_for_subject, plan_record
 
     options = {
         "target_k": args.target_k,
@@ -202,7 +202,7 @@ def _pilot_settings(args: argparse.Namespace) -> tuple[Any, list[str]]:
     """The pilot's simulation settings from the options given (the rest at ``colloc gait
     simulate``'s defaults, the length at the plan's), and their problems."""
     from colloc.gait.settings import GaitSimulationSettings
-    from colloc.identify.gait_plan import PILOT_MOTOR_NOISE, PILOT_SECONDS
+    from colloc.identify.gait.plan import PILOT_MOTOR_NOISE, PILOT_SECONDS
 
     # the plan's own defaults for the pilot's length and motor noise, the rest simulate's
     chosen = {"duration": PILOT_SECONDS, "motor_noise": PILOT_MOTOR_NOISE} | {

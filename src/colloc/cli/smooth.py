@@ -83,7 +83,7 @@ def run(args: argparse.Namespace) -> int:
     if report_problems("colloc gait smooth", smooth_checks(args)):
         return 2
     from colloc.gait.outputs import write_json
-    from colloc.identify.gait_smooth import smooth_summary, smooth_trial, smoothed_table
+    from colloc.identify.gait.smooth import smooth_summary, smooth_trial, smoothed_table
 
     start = time.perf_counter()
     try:
@@ -131,7 +131,7 @@ def _figures(result: Any, table: Any, out: Path) -> list[str]:
     import numpy as np
 
     from colloc.data.columns import JOINT_ANGLE_COLUMNS, TORQUE_COLUMNS
-    from colloc.identify.gait_estimate import JOINT_NAMES
+    from colloc.identify.gait.estimate import JOINT_NAMES
     from colloc.plot.common import save_figure
     from colloc.plot.gait_identification import plot_signal_comparison
 

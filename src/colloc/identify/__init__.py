@@ -13,19 +13,19 @@ _EXPORTS = {
     "direct_estimate": "colloc.identify.direct",
     "fit_gain_schedule": "colloc.identify.direct",
     "smooth_with_derivatives": "colloc.identify.direct",
-    "GaitSmoother": "colloc.identify.gait_smoother",
-    "SmoothedGait": "colloc.identify.gait_smoother_results",
-    "SmootherError": "colloc.identify.gait_smoother_results",
-    "SmootherSettings": "colloc.identify.gait_smoother_settings",
-    "SmootherStage": "colloc.identify.gait_smoother_results",
-    "consistent_completion": "colloc.identify.gait_smoother_start",
-    "lowpass": "colloc.identify.gait_smoother_start",
+    "GaitSmoother": "colloc.identify.gait.smoother",
+    "SmoothedGait": "colloc.identify.gait.smoother_results",
+    "SmootherError": "colloc.identify.gait.smoother_results",
+    "SmootherSettings": "colloc.identify.gait.smoother_settings",
+    "SmootherStage": "colloc.identify.gait.smoother_results",
+    "consistent_completion": "colloc.identify.gait.smoother_start",
+    "lowpass": "colloc.identify.gait.smoother_start",
     "GAIN_GUESSES": "colloc.identify.guesses",
-    "SCHEMES": "colloc.identify.pendulum",
-    "PendulumRun": "colloc.identify.pendulum",
-    "PendulumSettings": "colloc.identify.pendulum_settings",
-    "SCHEME_NAMES": "colloc.identify.pendulum_settings",
-    "run_pendulum": "colloc.identify.pendulum",
+    "SCHEMES": "colloc.identify.pendulum.workflow",
+    "PendulumRun": "colloc.identify.pendulum.workflow",
+    "PendulumSettings": "colloc.identify.pendulum.settings",
+    "SCHEME_NAMES": "colloc.identify.pendulum.settings",
+    "run_pendulum": "colloc.identify.pendulum.workflow",
 }
 
 __getattr__, __dir__ = lazy_exports(__name__, _EXPORTS, globals())
@@ -37,12 +37,12 @@ if TYPE_CHECKING:  # for type checkers; re-exported through __all__
         fit_gain_schedule,
         smooth_with_derivatives,
     )
-    from colloc.identify.gait_smoother import GaitSmoother
-    from colloc.identify.gait_smoother_results import SmoothedGait, SmootherError, SmootherStage
-    from colloc.identify.gait_smoother_settings import SmootherSettings
-    from colloc.identify.gait_smoother_start import consistent_completion, lowpass
+    from colloc.identify.gait.smoother import GaitSmoother
+    from colloc.identify.gait.smoother_results import SmoothedGait, SmootherError, SmootherStage
+    from colloc.identify.gait.smoother_settings import SmootherSettings
+    from colloc.identify.gait.smoother_start import consistent_completion, lowpass
     from colloc.identify.guesses import GAIN_GUESSES
-    from colloc.identify.pendulum import SCHEMES, PendulumRun, run_pendulum
-    from colloc.identify.pendulum_settings import SCHEME_NAMES, PendulumSettings
+    from colloc.identify.pendulum.settings import SCHEME_NAMES, PendulumSettings
+    from colloc.identify.pendulum.workflow import SCHEMES, PendulumRun, run_pendulum
 
 __all__ = list(_EXPORTS)

@@ -2,7 +2,7 @@
 
 :func:`colloc.lab.pipeline.process_lab` makes the trial's signals through a filter, inverse
 kinematics and inverse dynamics. The smoother that tracks markers and plates
-(:class:`colloc.identify.gait_markers.MarkerModel`) needs what came before those steps: each
+(:class:`colloc.identify.gait.markers.MarkerModel`) needs what came before those steps: each
 landmark's sagittal position, unfiltered and with its gaps left as gaps, at the marker rate,
 and each foot's plate at the plate rate. Each marker is assigned to the gait2d segment it
 moves with (:data:`LANDMARK_SEGMENTS`).

@@ -11,15 +11,15 @@ import numpy as np
 
 from colloc.control.gain_scheduled import GainScheduled
 from colloc.data.columns import TORQUE_COLUMNS
-from colloc.identify.gait_estimate import (
+from colloc.identify.gait.estimate import (
     ControllerEstimate,
 )
-from colloc.identify.gait_read import (
+from colloc.identify.gait.read import (
     state_names,
     tracked_columns,
 )
-from colloc.identify.gait_settings import GaitIdentifySettings
-from colloc.identify.gait_stage import Fit, FitContext
+from colloc.identify.gait.settings import GaitIdentifySettings
+from colloc.identify.gait.stage import Fit, FitContext
 
 
 def closed_loop_fit(c: FitContext) -> Fit:
@@ -89,7 +89,7 @@ def _problem(
     """The collocation problem; its tracking weights are ``1 / (sigma^2 N)``."""
     from sympy.physics.mechanics import dynamicsymbols
 
-    from colloc.identify.gait_trial_noise import trial_noise_std
+    from colloc.identify.gait.trial_noise import trial_noise_std
     from colloc.model.symbols import name_of
     from colloc.nlp.objective import Tracking
     from colloc.nlp.problem import Problem

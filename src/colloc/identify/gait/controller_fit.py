@@ -1,7 +1,7 @@
 """The gain schedule from smoothed signals, with stride-sandwich errors and its bound.
 
-Given the dynamically consistent smoother's states and torques (:mod:`colloc.identify.
-gait_smoother`), ``T = T*(phi) - K(phi) s + e`` is linear in the schedule's values, so each
+Given the dynamically consistent smoother's states and torques
+(:mod:`colloc.identify.gait.smoother`), ``T = T*(phi) - K(phi) s + e`` is linear in the schedule's values, so each
 torque's ``T*`` and allowed gains come from one least squares. The signals are read where the
 midpoint rule holds the dynamics, the interval midpoints: averages of neighbouring nodes cancel
 the rule's odd-even mode, which leaves the smoothed node rates 3-50 deg/s from the truth on the
@@ -124,7 +124,7 @@ def fit_schedule_with_errors(
         them: signals free of an error that lagged ``feedback`` shares with ``feedback`` make
         the fit consistent where lagged ``feedback`` would not (the smoother's node rates and
         the midpoint rule's odd-even mode:
-        :meth:`colloc.identify.gait_smoother_results.SmoothedGait.instrument_states`).
+        :meth:`colloc.identify.gait.smoother_results.SmoothedGait.instrument_states`).
 
     Returns
     -------

@@ -9,7 +9,7 @@ import numpy as np
 
 from colloc.control.gain_scheduled import GainScheduled
 from colloc.data.columns import JOINT_ANGLE_COLUMNS, JOINT_RATE_COLUMNS, TORQUE_COLUMNS
-from colloc.identify.gait_read import (
+from colloc.identify.gait.read import (
     GaitData,
     recorded_controller,
 )
@@ -110,7 +110,7 @@ def estimate_metrics(
         )
     )
     if collocation.K_bound is not None and collocation.Tstar_bound is not None:
-        from colloc.identify.gait_controller_fit import relative_spread
+        from colloc.identify.gait.controller_fit import relative_spread
 
         # relative to the truth when there is one, else to the estimate
         reference = truth or collocation

@@ -51,9 +51,9 @@ from colloc.data.columns import (
     TRUNK_COLUMNS,
 )
 from colloc.data.tables import marker_names
-from colloc.identify.gait_smoother import GaitSmoother
-from colloc.identify.gait_smoother_settings import SmootherSettings
-from colloc.identify.gait_trial_noise import trial_noise_std
+from colloc.identify.gait.smoother import GaitSmoother
+from colloc.identify.gait.smoother_settings import SmootherSettings
+from colloc.identify.gait.trial_noise import trial_noise_std
 
 #: Marker noise [m] used when the record shows none (a noise-free synthetic export).
 DEFAULT_MARKER_STD = 1e-3

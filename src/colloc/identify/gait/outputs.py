@@ -8,8 +8,8 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from colloc.identify.gait import JOINT_NAMES, GaitIdentification
-from colloc.identify.gait_estimate import mean_cycle_torque
+from colloc.identify.gait.estimate import mean_cycle_torque
+from colloc.identify.gait.workflow import JOINT_NAMES, GaitIdentification
 from colloc.identify.summaries import finite_or_none, plain
 from colloc.store import package_versions, run_id_for
 

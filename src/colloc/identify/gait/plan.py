@@ -1,6 +1,6 @@
 """How long to record: the Cramér–Rao bound of the gain schedule against the record's length.
 
-The bound is the one ``colloc gait identify`` reports (:mod:`colloc.identify.gait_controller_fit`):
+The bound is the one ``colloc gait identify`` reports (:mod:`colloc.identify.gait.controller_fit`):
 the least squares of ``T = T*(phi) - K(phi) s`` with the fed-back states known and each
 torque equation's noise ``sigma``, ``cov = sigma^2 (D' D)^-1`` per torque, as a relative error
 ``sqrt(sum of the variances) / |K|`` against a known controller. Its design ``D`` comes from a
@@ -25,16 +25,16 @@ from colloc.control.gain_scheduled import GainScheduled
 from colloc.data.columns import TORQUE_COLUMNS
 from colloc.gait.settings import GaitSimulationSettings
 from colloc.identify.direct import schedule_design
-from colloc.identify.gait_controller_fit import relative_spread
-from colloc.identify.gait_read import (
+from colloc.identify.gait.controller_fit import relative_spread
+from colloc.identify.gait.read import (
     GaitData,
     gait_phase,
     read_gait_data,
     recorded_controller,
     state_names,
 )
-from colloc.identify.gait_settings import GaitIdentifySettings
-from colloc.identify.gait_trial_noise import torque_equation_noise, trial_noise_std
+from colloc.identify.gait.settings import GaitIdentifySettings
+from colloc.identify.gait.trial_noise import torque_equation_noise, trial_noise_std
 
 if TYPE_CHECKING:
     from colloc.gait.workflow import Progress
@@ -373,7 +373,7 @@ def smoothed_states(
     times : ndarray, shape (M,)
     states : ndarray, shape (M, 18)
     """
-    from colloc.identify.gait_windows import (
+    from colloc.identify.gait.windows import (
         fit_windows,
         smooth_windows,
         smoothing_source,

@@ -14,7 +14,7 @@ from colloc.data.phase import causal_gait_phase, unwrapped_gait_phase
 from colloc.data.split import split
 from colloc.data.trial import Trial, read_trial, read_trial_metadata
 from colloc.identify.direct import smooth_with_derivatives
-from colloc.identify.gait_settings import DEFAULT_POINTS, GaitIdentifySettings
+from colloc.identify.gait.settings import DEFAULT_POINTS, GaitIdentifySettings
 
 
 @dataclass

@@ -1,6 +1,6 @@
 """What determines a gait controller identification, checked before any work starts.
 
-Kept apart from the workflow (:mod:`colloc.identify.gait`) so that the command line can show
+Kept apart from the workflow (:mod:`colloc.identify.gait.workflow`) so that the command line can show
 its defaults without importing SymPy, CasADi or SciPy.
 """
 
@@ -34,7 +34,7 @@ SCHEMES = ("midpoint", "backward-euler")
 METHODS = ("smoother", "closed-loop")
 STRUCTURES = ("full", "joint-isolated")
 #: ``--smooth-from``: what the smoother tracks. ``markers``: the lab's raw markers and plates
-#: (a lab trial's ``markers.csv`` and ``plates.csv``; colloc.identify.gait_markers);
+#: (a lab trial's ``markers.csv`` and ``plates.csv``; colloc.identify.gait.markers);
 #: ``angles``: the trial's angles, trunk pose and torques (a simulated trial's, or a lab's
 #: through its 6 Hz filter, inverse kinematics and dynamics); ``auto``: markers when the
 #: trial has them.
@@ -103,7 +103,7 @@ class GaitIdentifySettings:
     instrument_lags : tuple of int
         Method ``smoother``: the schedule is fitted by two-stage least squares with the
         fed-back states this many samples earlier as instruments
-        (:func:`colloc.identify.gait_controller_fit.fit_schedule_with_errors`); empty:
+        (:func:`colloc.identify.gait.controller_fit.fit_schedule_with_errors`); empty:
         ordinary least squares.
     smooth_from : str
         One of :data:`SMOOTH_SOURCES` (method ``smoother``).

@@ -2,7 +2,7 @@
 residual forces that remain (``colloc gait smooth``).
 
 What a gait lab wants even without a controller: the motion of gait2d closest to the
-record that the model makes with free joint torques (:mod:`colloc.identify.gait_smoother`),
+record that the model makes with free joint torques (:mod:`colloc.identify.gait.smoother`),
 read as joint angles, rates and moments, with the residual forces on the trunk that the
 record still needs (what a residual reduction reports). The record is smoothed whole or in
 windows of whole strides (:func:`colloc.data.split.stride_windows`).
@@ -23,9 +23,9 @@ from colloc.data.columns import JOINT_ANGLE_COLUMNS, TORQUE_COLUMNS
 from colloc.data.split import stride_windows
 from colloc.data.trial import Trial, read_trial
 from colloc.gait.metadata import STATE_SIGNAL_NAMES
-from colloc.identify.gait_read import subject
-from colloc.identify.gait_settings import SMOOTH_SOURCES
-from colloc.identify.gait_windows import (
+from colloc.identify.gait.read import subject
+from colloc.identify.gait.settings import SMOOTH_SOURCES
+from colloc.identify.gait.windows import (
     SOURCE_WORDS,
     WindowMap,
     prefixed,
@@ -96,10 +96,10 @@ def smooth_trial(
     smooth_from : str
         What the smoother tracks: ``markers`` (a lab trial's raw markers and plates),
         ``angles`` (its angles, trunk pose and torques) or ``auto`` (default: markers when
-        the trial has them; :data:`colloc.identify.gait_settings.SMOOTH_SOURCES`).
+        the trial has them; :data:`colloc.identify.gait.settings.SMOOTH_SOURCES`).
     noise_levels : tuple of (str, float)
         Smoothing from markers: noise levels replacing the trial's estimates
-        (:class:`colloc.identify.gait_markers.MarkerNoise`).
+        (:class:`colloc.identify.gait.markers.MarkerNoise`).
     progress : callable, optional
         ``progress(step, detail)``.
     map_windows : callable, optional

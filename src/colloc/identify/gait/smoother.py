@@ -37,8 +37,8 @@ from typing import Any
 import numpy as np
 import sympy as sm
 
-from colloc.identify.gait_smoother_results import SmoothedGait, SmootherError, SmootherStage
-from colloc.identify.gait_smoother_settings import (
+from colloc.identify.gait.smoother_results import SmoothedGait, SmootherError, SmootherStage
+from colloc.identify.gait.smoother_settings import (
     COMPLETION_STEPS,
     COMPLETION_TOL,
     DIVERGED_DUAL_INFEASIBILITY,
@@ -48,8 +48,8 @@ from colloc.identify.gait_smoother_settings import (
     Progress,
     SmootherSettings,
 )
-from colloc.identify.gait_smoother_start import consistent_completion, lowpass
-from colloc.identify.gait_trial_noise import trial_noise_std
+from colloc.identify.gait.smoother_start import consistent_completion, lowpass
+from colloc.identify.gait.trial_noise import trial_noise_std
 from colloc.model.symbols import name_of
 
 
@@ -86,7 +86,7 @@ class GaitSmoother:
         Further measured outputs: symbol -> ``(expression, values, std)``, the expression in
         the model's states and inputs, the values at the nodes (NaN where missing) and
         their noise's standard deviation (e.g. markers and plates,
-        :func:`colloc.identify.gait_markers.marker_smoother`).
+        :func:`colloc.identify.gait.markers.marker_smoother`).
     track_positions : bool
         Track ``positions`` (default). False: they only make the start (a lab's inverse
         kinematics, when the markers themselves are tracked).
@@ -100,14 +100,14 @@ class GaitSmoother:
         ``v_s = 0.1`` m/s) so guide the early stages without pulling them apart.
     node_mean_inputs : bool
         The result's joint torques and residual forces are determined in pairs of nodes only
-        (:attr:`~colloc.identify.gait_smoother_results.SmoothedGait.inputs_in_pairs`), for a
+        (:attr:`~colloc.identify.gait.smoother_results.SmoothedGait.inputs_in_pairs`), for a
         smoother that measures no torques under the trapezoidal rule: its defects tie the
         node accelerations only in pairs (``u_(k+1) - u_k = h (a_k + a_(k+1)) / 2``), so an
         acceleration alternating node to node moves no state, and the torques that make it
         alternate with it. Measured on 4 s of a simulated walk's lab export: the node
         torques 5.1-8.2 N m RMS from the truth with successive differences changing sign at
         46-68 % of the nodes (the truth's 16-19 %), their node means 2.0-5.1 N m
-        (:meth:`~colloc.identify.gait_smoother_results.SmoothedGait.node_mean_inputs`).
+        (:meth:`~colloc.identify.gait.smoother_results.SmoothedGait.node_mean_inputs`).
     """
 
     def __init__(

@@ -9,15 +9,15 @@ from typing import Any
 import numpy as np
 
 from colloc.control.gain_scheduled import GainScheduled
-from colloc.identify.gait_estimate import (
+from colloc.identify.gait.estimate import (
     ControllerEstimate,
 )
-from colloc.identify.gait_read import (
+from colloc.identify.gait.read import (
     gait_phase,
     state_names,
 )
-from colloc.identify.gait_stage import Fit, FitContext
-from colloc.identify.gait_windows import (
+from colloc.identify.gait.stage import Fit, FitContext
+from colloc.identify.gait.windows import (
     SOURCE_WORDS,
     fit_windows,
     prefixed,
@@ -37,13 +37,13 @@ ZERO_MOTOR_NOISE_NOTE = (
 
 
 def smoother_fit(c: FitContext) -> Fit:
-    """The dynamically consistent smoother (:mod:`colloc.identify.gait_smoother`), then the
+    """The dynamically consistent smoother (:mod:`colloc.identify.gait.smoother`), then the
     schedule's two-stage least squares on its node signals (or the ordinary least squares at
     the interval midpoints), with stride-sandwich errors and the bound of the design
-    (:mod:`colloc.identify.gait_controller_fit`)."""
-    from colloc.identify.gait_controller_fit import fit_schedule_with_errors, instruments_pay
-    from colloc.identify.gait_trial_noise import torque_equation_noise
-    from colloc.identify.gait_windows import smooth_windows
+    (:mod:`colloc.identify.gait.controller_fit`)."""
+    from colloc.identify.gait.controller_fit import fit_schedule_with_errors, instruments_pay
+    from colloc.identify.gait.trial_noise import torque_equation_noise
+    from colloc.identify.gait.windows import smooth_windows
 
     settings, data, gs = c.settings, c.data, c.gs
     meta = data.trial.metadata
@@ -152,7 +152,7 @@ def _signals(
     result: Any, instrumented: bool
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """A window's times, states, torques and the states its instruments lag: the nodes
-    (:meth:`~colloc.identify.gait_smoother_results.SmoothedGait.instrument_states` for the
+    (:meth:`~colloc.identify.gait.smoother_results.SmoothedGait.instrument_states` for the
     instruments) for the instrumented fit, else where the scheme holds the dynamics."""
     if instrumented:
         return result.times, result.states, result.torques, result.instrument_states()

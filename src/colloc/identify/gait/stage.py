@@ -1,4 +1,4 @@
-"""What the two fits of :func:`colloc.identify.gait.identify_gait` read and return."""
+"""What the two fits of :func:`colloc.identify.gait.workflow.identify_gait` read and return."""
 
 from __future__ import annotations
 
@@ -9,14 +9,14 @@ from typing import Any
 import numpy as np
 
 from colloc.control.gain_scheduled import GainScheduled
-from colloc.identify.gait_estimate import (
+from colloc.identify.gait.estimate import (
     ControllerEstimate,
 )
-from colloc.identify.gait_read import (
+from colloc.identify.gait.read import (
     GaitData,
 )
-from colloc.identify.gait_settings import GaitIdentifySettings
-from colloc.identify.gait_windows import (
+from colloc.identify.gait.settings import GaitIdentifySettings
+from colloc.identify.gait.windows import (
     WindowMap,
 )
 

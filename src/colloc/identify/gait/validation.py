@@ -10,11 +10,11 @@ import numpy as np
 
 from colloc.control.gain_scheduled import GainScheduled
 from colloc.data.columns import JOINT_ANGLE_COLUMNS, TORQUE_COLUMNS
-from colloc.identify.gait_estimate import (
+from colloc.identify.gait.estimate import (
     JOINT_NAMES,
     ControllerEstimate,
 )
-from colloc.identify.gait_read import (
+from colloc.identify.gait.read import (
     GaitData,
     causal_phase_parameters,
     gait_phase,
@@ -22,10 +22,10 @@ from colloc.identify.gait_read import (
     state_names,
     subject,
 )
-from colloc.identify.gait_settings import GaitIdentifySettings
-from colloc.identify.gait_stage import Progress
-from colloc.identify.gait_walk import WalkJob, phase_difference, walk
-from colloc.identify.gait_windows import (
+from colloc.identify.gait.settings import GaitIdentifySettings
+from colloc.identify.gait.stage import Progress
+from colloc.identify.gait.walk import WalkJob, phase_difference, walk
+from colloc.identify.gait.windows import (
     WindowMap,
     fit_windows,
     prefixed,
@@ -118,7 +118,7 @@ def against_walk(walked: dict[str, Any], reference: dict[str, Any]) -> dict[str,
     Parameters
     ----------
     walked, reference : dict
-        :func:`colloc.identify.gait_walk.walk`'s results.
+        :func:`colloc.identify.gait.walk.walk`'s results.
 
     Returns
     -------
@@ -151,7 +151,7 @@ def _smoothed_held_out(
     """Phase, smoothed states and measured torques of the held-out part where the smoother's
     scheme holds the dynamics (the held-out part smoothed like the fit window, in the same
     windows and on the same workers)."""
-    from colloc.identify.gait_windows import smooth_windows
+    from colloc.identify.gait.windows import smooth_windows
 
     part = data.held_out
     rows = np.arange(part.time.size)

@@ -4,7 +4,7 @@ A :class:`WalkJob` holds the numbers the forward simulation needs (the controlle
 record's belt speed, start state and phase law, the measured angles to compare with) and no
 CasADi object, so the identified and the direct controllers' walks can run side by side on
 the Dask workers that smoothed the windows (:func:`walk`; the model is built once per process,
-:func:`colloc.identify.gait_windows.gait_dynamics`).
+:func:`colloc.identify.gait.windows.gait_dynamics`).
 """
 
 from __future__ import annotations
@@ -14,7 +14,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from colloc.data.phase import phase_normalised
-from colloc.identify.gait_windows import gait_dynamics
+from colloc.identify.gait.windows import gait_dynamics
 from colloc.identify.validation import rms, variance_accounted_for
 
 

@@ -1,7 +1,7 @@
 """Windows of whole strides smoothed one by one, here or on other processes.
 
 Given the controller, the windows of a walking record are independent: each is smoothed
-alone (:class:`~colloc.identify.gait_smoother.GaitSmoother`, its own states and start), and
+alone (:class:`~colloc.identify.gait.smoother.GaitSmoother`, its own states and start), and
 only their smoothed signals meet again, in the schedule's fit. A :class:`WindowJob` holds
 what one window needs and nothing that cannot travel (no CasADi object: a worker builds the
 model once per process, :func:`gait_dynamics`), so the jobs can be handed to any ``map``: the
@@ -19,11 +19,11 @@ import numpy as np
 
 from colloc.data.split import stride_windows, take_rows
 from colloc.data.trial import Trial
-from colloc.identify.gait_read import subject
-from colloc.identify.gait_settings import GaitIdentifySettings
-from colloc.identify.gait_smoother import GaitSmoother
-from colloc.identify.gait_smoother_results import SmoothedGait
-from colloc.identify.gait_smoother_settings import SmootherSettings
+from colloc.identify.gait.read import subject
+from colloc.identify.gait.settings import GaitIdentifySettings
+from colloc.identify.gait.smoother import GaitSmoother
+from colloc.identify.gait.smoother_results import SmoothedGait
+from colloc.identify.gait.smoother_settings import SmootherSettings
 
 Progress = Callable[[str, str], None]
 #: ``map_windows(function, jobs) -> results`` in the jobs' order.
@@ -67,11 +67,11 @@ class WindowJob:
         None: the source's own defaults (:data:`SMOOTHERS`).
     source : str
         What the smoother tracks: ``markers`` (the lab's raw markers and plates,
-        :func:`colloc.identify.gait_markers.marker_smoother`) or ``angles`` (the trial's
+        :func:`colloc.identify.gait.markers.marker_smoother`) or ``angles`` (the trial's
         angles, trunk and torques, :meth:`GaitSmoother.from_trial`).
     noise : tuple of (str, float)
         Source ``markers``: noise levels replacing the trial's estimates (``marker``,
-        ``force``, ``moment``, ``torque_prior``; :class:`colloc.identify.gait_markers.MarkerNoise`).
+        ``force``, ``moment``, ``torque_prior``; :class:`colloc.identify.gait.markers.MarkerNoise`).
     """
 
     trial: Any
@@ -90,7 +90,7 @@ def _angle_smoother(dynamics: Any, job: WindowJob) -> tuple[GaitSmoother, dict[s
 
 
 def _marker_smoother(dynamics: Any, job: WindowJob) -> tuple[GaitSmoother, dict[str, Any]]:
-    from colloc.identify.gait_markers import marker_smoother
+    from colloc.identify.gait.markers import marker_smoother
 
     return marker_smoother(dynamics, job.trial, job.rows, job.settings, noise=dict(job.noise))
 
@@ -118,7 +118,7 @@ def smoothing_source(requested: str, trial: Any) -> str:
     ValueError
         When ``markers`` is asked of a trial without them.
     """
-    from colloc.identify.gait_markers import has_markers
+    from colloc.identify.gait.markers import has_markers
 
     if requested == "auto":
         return "markers" if has_markers(trial) else "angles"
@@ -157,7 +157,7 @@ def smooth_window(job: WindowJob, progress: Progress | None = None) -> SmoothedG
 
     result = smoother.run(progress=report)
     if job.source == "markers":
-        from colloc.identify.gait_markers import tracking_fit
+        from colloc.identify.gait.markers import tracking_fit
 
         facts = {**facts, "fit": tracking_fit(result.problem, result.z)}
     result.tracking = facts

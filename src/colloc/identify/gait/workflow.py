@@ -6,34 +6,34 @@ measured signals weighted by ``1 / (sigma^2 N)`` (``sigma`` the trial's noise le
 signal, the default lab noise where the trial records none). Steps of :func:`identify_gait`,
 each timed and reported through ``progress``:
 
-1. ``read`` (:mod:`~colloc.identify.gait_read`): the trial, checked; the split at the right
+1. ``read`` (:mod:`~colloc.identify.gait.read`): the trial, checked; the split at the right
    heel strike nearest the fit fraction; the fit window between right heel strikes; every
    problem with the data reported at once;
 2. ``direct``: direct identification, one least squares of the measured torques on the
    measured feedback per torque (:func:`colloc.identify.direct.fit_gain_schedule`), rates by
    Savitzky-Golay differentiation of the positions: the solver's start and the baseline;
-3. the fit, by ``settings.method`` (:mod:`~colloc.identify.gait_smoother_fit`,
-   :mod:`~colloc.identify.gait_closed_loop`): ``smooth`` and ``controller`` — the dynamically
-   consistent smoother (:mod:`colloc.identify.gait_smoother`) and the schedule's least
+3. the fit, by ``settings.method`` (:mod:`~colloc.identify.gait.smoother_fit`,
+   :mod:`~colloc.identify.gait.closed_loop`): ``smooth`` and ``controller`` — the dynamically
+   consistent smoother (:mod:`colloc.identify.gait.smoother`) and the schedule's least
    squares on its signals where the scheme holds the dynamics, with stride-sandwich errors
-   and the bound of the design (:mod:`colloc.identify.gait_controller_fit`); or ``build``
+   and the bound of the design (:mod:`colloc.identify.gait.controller_fit`); or ``build``
    and ``solve`` — the closed-loop collocation problem, solved by constrained Gauss-Newton
    with condensing (:meth:`colloc.Problem.solve_gauss_newton`); with ``process_noise``,
    motor noise on each joint torque and residual forces on the trunk are disturbance
    trajectories penalised by their variance (``docs/process-noise.md``);
 4. ``uncertainty`` (closed loop; against the truth when the trial records it:
-   :mod:`~colloc.identify.gait_estimate`): standard errors of every ``T*`` and ``K`` entry from the
+   :mod:`~colloc.identify.gait.estimate`): standard errors of every ``T*`` and ``K`` entry from the
    Fisher information at the estimate with the known noise levels
    (:func:`colloc.cramer_rao_bound` evaluated at the solution), or with ``process_noise`` the
    sandwich over strides (:func:`colloc.parameter_uncertainty`);
-5. ``validate`` (:mod:`~colloc.identify.gait_validation`): on the held-out part, each controller's torques on the feedback (smoothed
+5. ``validate`` (:mod:`~colloc.identify.gait.validation`): on the held-out part, each controller's torques on the feedback (smoothed
    like the fit window for the smoother fit; measured beside it) against the measured torques
    (VAF per joint), and a forward simulation of gait2d under
    the identified controller from the measured state at the part's start, on its belt record
    (:func:`colloc.gait.closed_loop.simulate_walking`): does it walk to the end, and how far
    are its joint angles from the measured ones.
 
-Figures, the stored record and the summary: :mod:`~colloc.identify.gait_outputs`.
+Figures, the stored record and the summary: :mod:`~colloc.identify.gait.outputs`.
 """
 
 from __future__ import annotations
@@ -48,15 +48,15 @@ import numpy as np
 from colloc.control.gain_scheduled import GainScheduled
 from colloc.data.columns import JOINT_ANGLE_COLUMNS, TORQUE_COLUMNS
 from colloc.identify.direct import fit_gain_schedule
-from colloc.identify.gait_closed_loop import closed_loop_fit
-from colloc.identify.gait_estimate import (
+from colloc.identify.gait.closed_loop import closed_loop_fit
+from colloc.identify.gait.estimate import (
     JOINT_NAMES,
     ControllerEstimate,
     estimate_metrics,
     mean_signals_by_phase,
     true_controller,
 )
-from colloc.identify.gait_read import (
+from colloc.identify.gait.read import (
     causal_phase_parameters,
     gait_phase,
     measured_states,
@@ -66,11 +66,11 @@ from colloc.identify.gait_read import (
     subject_note,
     trial_digest,
 )
-from colloc.identify.gait_settings import GaitIdentifySettings
-from colloc.identify.gait_smoother_fit import smoother_fit
-from colloc.identify.gait_stage import Fit, FitContext, Iterations, Progress
-from colloc.identify.gait_validation import validate
-from colloc.identify.gait_windows import WindowMap, gait_dynamics
+from colloc.identify.gait.settings import GaitIdentifySettings
+from colloc.identify.gait.smoother_fit import smoother_fit
+from colloc.identify.gait.stage import Fit, FitContext, Iterations, Progress
+from colloc.identify.gait.validation import validate
+from colloc.identify.gait.windows import WindowMap, gait_dynamics
 from colloc.numeric.memory import peak_rss_mb
 
 __all__ = ["JOINT_NAMES", "ControllerEstimate", "GaitIdentification", "identify_gait"]
@@ -111,7 +111,7 @@ class GaitIdentification:
         the strides to a fall if it falls) against ``measured_strides`` (the record's),
         ``angle_rms_deg``, ``angle_vaf`` and ``angle_rms_phase_deg`` (joint -> value; the
         last between mean strides), ``against_truth_walk``
-        (:func:`colloc.identify.gait_validation.against_walk`), ``times``,
+        (:func:`colloc.identify.gait.validation.against_walk`), ``times``,
         ``measured_angles``, ``simulated_angles`` (arrays) and ``walk_signals`` (each
         walk's whole result).
     metrics : dict
@@ -125,7 +125,7 @@ class GaitIdentification:
         Step -> seconds.
     mean_signals : ndarray, shape (P, n_s)
         The fed-back signals averaged per schedule point over the fit window
-        (:func:`colloc.identify.gait_estimate.mean_signals_by_phase`): the mean gait cycle
+        (:func:`colloc.identify.gait.estimate.mean_signals_by_phase`): the mean gait cycle
         on which ``T0 = T* - K s_mean`` is the controller's joint-moment profile.
     model : dict
         ``subject`` (mass and height and where they came from) and ``constants``: every
@@ -181,8 +181,8 @@ def identify_gait(
     map_windows : callable, optional
         ``map_windows(function, jobs) -> results`` runs the independent pieces elsewhere,
         e.g. on Dask workers: the stride windows of method ``smoother``
-        (``settings.window_strides``, :mod:`colloc.identify.gait_windows`) and the
-        held-out part's two forward simulations (:mod:`colloc.identify.gait_walk`); default
+        (``settings.window_strides``, :mod:`colloc.identify.gait.windows`) and the
+        held-out part's two forward simulations (:mod:`colloc.identify.gait.walk`); default
         one after another here.
 
     Returns

@@ -5,7 +5,7 @@ from __future__ import annotations
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from colloc.identify.pendulum import PendulumRun
+from colloc.identify.pendulum.workflow import PendulumRun
 from colloc.identify.summaries import finite_or_none as _num
 from colloc.identify.summaries import plain as _plain
 from colloc.store import digest_arrays, package_versions, run_id_for

@@ -1,6 +1,6 @@
 """What determines a pendulum identification run, checked before any work starts.
 
-Kept apart from the workflow (:mod:`colloc.identify.pendulum`) so that the command line can
+Kept apart from the workflow (:mod:`colloc.identify.pendulum.workflow`) so that the command line can
 show its defaults without importing SymPy, CasADi or SciPy.
 """
 

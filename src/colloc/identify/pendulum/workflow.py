@@ -20,7 +20,7 @@ from colloc.control.lqr import lqr
 from colloc.control.state_feedback import StateFeedback
 from colloc.identify.direct import direct_estimate, smooth_with_derivatives
 from colloc.identify.guesses import GAIN_GUESSES
-from colloc.identify.pendulum_settings import SCHEME_NAMES, PendulumSettings
+from colloc.identify.pendulum.settings import SCHEME_NAMES, PendulumSettings
 from colloc.model.linearize import linearize
 from colloc.model.model import Model
 from colloc.model.symbols import name_of

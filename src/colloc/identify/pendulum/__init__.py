@@ -1,0 +1,1 @@
+"""The pendulum study: the workflow (:mod:`.workflow`), its settings and its outputs."""
