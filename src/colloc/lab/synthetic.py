@@ -152,7 +152,8 @@ def lab_export_from_record(
 
 
 def write_lab_export(export: LabExport, path: str | os.PathLike[str]) -> Path:
-    """Write an export as a lab would: tab separated, ``TimeStamp`` then markers and plates.
+    """Write an export as a lab would: tab separated, ``TimeStamp`` then markers (with
+    ``.PosZ`` where the export has a marker's lateral coordinate) and plates.
 
     Parameters
     ----------
@@ -168,6 +169,8 @@ def write_lab_export(export: LabExport, path: str | os.PathLike[str]) -> Path:
     for name, xy in export.markers.items():
         for k, axis in enumerate(MARKER_AXES):
             columns[f"{name}.{axis}"] = xy[:, k]
+        if name in export.lateral:
+            columns[f"{name}.PosZ"] = export.lateral[name]
     for name, channels in export.plates.items():
         for k, channel in enumerate(PLATE_CHANNELS):
             columns[f"{name}.{channel}"] = channels[:, k]

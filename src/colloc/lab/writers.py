@@ -13,13 +13,12 @@ from __future__ import annotations
 
 import os
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING
 
 import numpy as np
-import pandas as pd
 
 from colloc.data.columns import SIDES
-from colloc.lab.exports import PLATE_CHANNELS, LabExport
+from colloc.lab.exports import LabExport
 from colloc.lab.formats.c3d import write_c3d
 from colloc.lab.formats.mot import write_grf_mapping, write_mot
 from colloc.lab.formats.trc import write_trc
@@ -257,18 +256,18 @@ def _z_up_plate(plate: PlateSeries) -> PlateSeries:
 def _write_tsv(record: LabRecord, path: Path, per_frame: int) -> Path:
     """A 3-D record as a tab export: markers in (forward, up, right), each plate's forward
     and vertical force and moment about the origin at the markers' times."""
-    columns: dict[str, Any] = {"TimeStamp": record.time}
-    for name, xyz in record.markers.items():
-        for k, axis in enumerate(("PosX", "PosY", "PosZ")):
-            columns[f"{name}.{axis}"] = xyz[:, k]
+    plates = {}
     for name, plate in record.plates.items():
         force = plate.force[::per_frame][: record.time.size]
         point = plate.point[::per_frame][: record.time.size]
         moment = np.nan_to_num(point[:, 0] * force[:, 1] - point[:, 1] * force[:, 0])
-        for channel, values in zip(PLATE_CHANNELS, (force[:, 0], force[:, 1], moment), strict=True):
-            columns[f"{name}.{channel}"] = values
-    columns.update(record.columns)
-    partial = path.with_name(f".{path.name}.part")
-    pd.DataFrame(columns).to_csv(partial, sep="\t", index=False, float_format="%.6f")
-    partial.replace(path)
-    return path
+        plates[name] = np.column_stack([force[:, 0], force[:, 1], moment])
+    export = LabExport(
+        time=record.time,
+        markers={name: xyz[:, :2] for name, xyz in record.markers.items()},
+        plates=plates,
+        columns=dict(record.columns),
+        source=record.source,
+        lateral={name: xyz[:, 2] for name, xyz in record.markers.items()},
+    )
+    return write_lab_export(export, path)
