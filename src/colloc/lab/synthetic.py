@@ -133,12 +133,7 @@ def lab_export_from_record(
             )
     plates = {}
     for k, side in enumerate(SIDES):
-        heel, toe = points[f"{side}_heel"], points[f"{side}_toe"]
-        f_heel, f_toe = forces[:, 4 * k : 4 * k + 2], forces[:, 4 * k + 2 : 4 * k + 4]
-        total = f_heel + f_toe
-        moment = sum(
-            p[:, 0] * f[:, 1] - p[:, 1] * f[:, 0] for p, f in ((heel, f_heel), (toe, f_toe))
-        )
+        total, moment = foot_reaction(points, forces[:, 4 * k : 4 * k + 4], side)
         channels = np.column_stack([total, moment])
         scale = np.array([noise.force, noise.force, noise.moment])
         plates[marker_set.plates[side]] = channels + scale * rng.standard_normal(channels.shape)
@@ -149,6 +144,33 @@ def lab_export_from_record(
     return LabExport(
         time=time, markers=markers, plates=plates, columns=columns, source="simulated walk"
     )
+
+
+def foot_reaction(
+    points: dict[str, np.ndarray], forces: np.ndarray, side: str
+) -> tuple[np.ndarray, np.ndarray]:
+    """One foot's ground reaction as its plate reports it.
+
+    Parameters
+    ----------
+    points : dict
+        :func:`colloc.models.gait2d_points.stick_figure_points` of the walk.
+    forces : ndarray, shape (N, 4)
+        ``Fx, Fy`` on the foot's heel, then its toe [N].
+    side : str
+        ``right`` or ``left``.
+
+    Returns
+    -------
+    force : ndarray, shape (N, 2)
+        Forward and vertical force, heel plus toe [N].
+    moment : ndarray, shape (N,)
+        Their moment about the lab's origin [N m].
+    """
+    heel, toe = points[f"{side}_heel"], points[f"{side}_toe"]
+    f_heel, f_toe = forces[:, 0:2], forces[:, 2:4]
+    moment = sum(p[:, 0] * f[:, 1] - p[:, 1] * f[:, 0] for p, f in ((heel, f_heel), (toe, f_toe)))
+    return f_heel + f_toe, np.asarray(moment)
 
 
 def write_lab_export(export: LabExport, path: str | os.PathLike[str]) -> Path:

@@ -22,7 +22,7 @@ from colloc.data.columns import SIDES
 from colloc.lab.markers import DEFAULT_MARKER_SET, MarkerSet
 from colloc.lab.record import LabRecord, PlateSeries
 from colloc.lab.skin_markers import skin_marker_positions, standing_pose
-from colloc.lab.synthetic import BELT_SPEED_COLUMNS, LabNoise
+from colloc.lab.synthetic import BELT_SPEED_COLUMNS, LabNoise, foot_reaction
 from colloc.models.gait2d_params import Gait2DParameters
 from colloc.models.gait2d_points import StickFigureGeometry, stick_figure_points
 
@@ -161,10 +161,7 @@ def _plate(
     rng: np.random.Generator,
 ) -> PlateSeries:
     """One foot's plate: forces with noise, the centre of pressure from the noisy moment."""
-    heel, toe = points[f"{side}_heel"], points[f"{side}_toe"]
-    f_heel, f_toe = forces[:, 0:2], forces[:, 2:4]
-    total = f_heel + f_toe
-    moment = sum(p[:, 0] * f[:, 1] - p[:, 1] * f[:, 0] for p, f in ((heel, f_heel), (toe, f_toe)))
+    total, moment = foot_reaction(points, forces, side)
     total = total + noise.force * rng.standard_normal(total.shape)
     moment = moment + noise.moment * rng.standard_normal(moment.shape)
     fx, fy = total.T
