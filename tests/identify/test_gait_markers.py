@@ -81,7 +81,7 @@ def test_segment_lengths_are_both_sides_mean():
 
 
 def test_the_ankle_height_is_the_loaded_malleolus_plus_the_contacts_sinking():
-    from colloc.identify.gait.markers import ankle_height
+    from colloc.lab.ankle import ankle_height
 
     t = np.arange(0.0, 1.0, 0.01)
     weight = 75.0 * 9.81

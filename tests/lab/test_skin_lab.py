@@ -192,3 +192,42 @@ def trial_from_lab_export(walk):
     from colloc.lab import process_lab
 
     return process_lab(export, LabSettings(*SUBJECT, belt_speed=1.2)).trial
+
+
+def test_the_skin_trial_keeps_the_clusters_and_pelvis_markers_for_the_smoother(
+    walk, geometry, skin_files
+):
+    settings = LabSettings(*SUBJECT, belt_speed=1.2)
+    trial = trial_from_lab(
+        skin_files["trc"], settings, skin_files["mot"], static=skin_files["static_trc"]
+    ).trial
+    segments = trial.metadata["markers"]["segments"]
+    # the markers the landmarks were made from, each with the segment it rides; none of the
+    # landmarks made of them (a carried knee or a regressed hip is not a measurement)
+    assert segments["R.Thigh.Front"] == "right_thigh"
+    assert segments["L.Shank.Rear"] == "left_shank"
+    assert segments["R.Heel"] == "right_foot" and segments["L.Toe.Lat"] == "left_foot"
+    assert {segments[n] for n in ("R.ASIS", "L.ASIS", "V.Sacral", "R.Acromium")} == {"trunk"}
+    assert not {"RLEK", "RGTRO", "RLM"} & set(segments)
+    # unfiltered: the recorded positions are the simulated markers' plus the 1 mm drawn
+    kept = np.isin(np.round(walk.times, 6), np.round(trial.time, 6))
+    truth = skin_marker_positions(walk.states[kept, :9], geometry)
+    table = trial.tables["markers"]
+    errors = np.concatenate(
+        [table[[f"{n}_x", f"{n}_y"]].to_numpy() - truth[n][:, :2] for n in segments]
+    )
+    assert np.sqrt(np.mean(errors**2)) == pytest.approx(1e-3, rel=0.15)
+    assert trial.metadata["markers"]["noise_std_m"] == pytest.approx(1e-3, rel=0.3)
+    # the ankle's height from the carried malleoli on the loaded feet: the model's 0.0703 m
+    assert trial.metadata["markers"]["ankle_height_m"] == pytest.approx(0.0703, abs=2e-3)
+
+
+def test_markers_to_track_must_be_in_the_export_with_a_known_segment(walk):
+    from colloc.lab import LabFileError, process_lab
+
+    export = lab_export_from_record(walk, load_parameters(*SUBJECT), seed=1)
+    settings = LabSettings(*SUBJECT, belt_speed=1.2)
+    with pytest.raises(
+        LabFileError, match=r"(?s)tracked: RXYZ not in .*segments expected among.*right_femur"
+    ):
+        process_lab(export, settings, tracked={"RXYZ": "right_thigh", "RLEK": "right_femur"})

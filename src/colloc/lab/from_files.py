@@ -60,6 +60,10 @@ def trial_from_lab(
         malleoli) are taken from it and carried by their segments' clusters
         (:mod:`colloc.lab.landmarks`); what was taken is in the trial's metadata.
 
+    The trial keeps, unfiltered, the markers the record holds for the marker smoother: the
+    landmarks when the record marks them, else the clusters and pelvis markers they were
+    made from (each with its segment, in the metadata's ``markers: segments``).
+
     Returns
     -------
     LabResult
@@ -122,8 +126,9 @@ def trial_from_lab(
             read[0], landmarks = landmark_record(
                 first, standing if isinstance(standing, LabRecord) else None
             )
+    tracked = landmarks.pop("tracked", None)
     markers, forces, settings, notes = _planar(read, settings, forward)
-    result = process_lab(markers, settings, forces)
+    result = process_lab(markers, settings, forces, tracked=tracked)
     result.notes[:0] = notes
     result.trial.metadata["lab"]["notes"][:0] = notes
     if landmarks:

@@ -26,7 +26,7 @@ from scipy.spatial.transform import Rotation
 from colloc.data.columns import SIDES
 from colloc.lab.exports import LabFileError
 from colloc.lab.hip_centre import hip_joint_centres
-from colloc.lab.markers import DEFAULT_MARKER_SET, LANDMARKS
+from colloc.lab.markers import DEFAULT_MARKER_SET, LANDMARKS, landmark_segment
 from colloc.lab.record import LabRecord
 
 #: Fewest markers of a cluster seen at a frame for its pose to be known.
@@ -204,7 +204,10 @@ def landmark_record(
         The walk's markers plus ``RSHO``, ``RGTRO``, ``RLEK``, ``RLM``, ``RHEE``, ``RMT5`` and
         the left side's.
     made : dict
-        What was done (the convention, and per landmark its source), for the metadata.
+        What was done (the convention, and per landmark its source), for the metadata, and
+        under ``tracked`` the markers the landmarks were made from, each with the gait2d
+        segment it moves with (a cluster's markers with its segment, the pelvis markers with
+        the trunk): what the marker smoother tracks in place of the landmarks.
 
     Raises
     ------
@@ -214,6 +217,7 @@ def landmark_record(
     convention = detect_convention(record, static)
     markers = dict(record.markers)
     made: dict[str, Any] = {"marker_set": convention.name, "landmarks": {}}
+    tracked: dict[str, str] = {}
     up = np.zeros(3)
     up[record.up] = 1.0
     for side in SIDES:
@@ -228,14 +232,17 @@ def landmark_record(
                     up,
                 )
                 markers[target] = right if side == "right" else left
+                tracked.update(dict.fromkeys(convention.names(side, landmark), "trunk"))
                 made["landmarks"][target] = (
                     "hip joint centre, Harrington et al. 2007 regression on the pelvis width "
                     f"and depth from {p}{rule.asis} of both sides and {'/'.join(rule.posterior)}"
                 )
                 continue
             marked = [f"{p}{m}" for m in rule.markers]
+            segment = landmark_segment(side, landmark)
             if all(n in record.markers for n in marked):
                 markers[target] = np.mean([record.markers[n] for n in marked], axis=0)
+                tracked.update(dict.fromkeys(marked, segment))
                 made["landmarks"][target] = (
                     f"midpoint of {', '.join(marked)}" if len(marked) > 1 else marked[0]
                 )
@@ -243,11 +250,13 @@ def landmark_record(
             assert static is not None  # else detect_convention refused
             cluster = [f"{p}{m}" for m in rule.cluster]
             markers[target], local = _carried(record, static, marked, cluster)
+            tracked.update(dict.fromkeys(cluster, segment))
             made["landmarks"][target] = {
                 "static": f"midpoint of {', '.join(marked)}",
                 "carried_by": cluster,
                 "in_cluster_frame_mm": [round(float(v) * 1000, 2) for v in local],
             }
+    made["tracked"] = tracked
     return (
         LabRecord(
             time=record.time,

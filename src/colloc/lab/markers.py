@@ -28,6 +28,24 @@ from colloc.data.columns import SIDES
 #: Landmarks of one side, proximal to distal.
 LANDMARKS: tuple[str, ...] = ("shoulder", "hip", "knee", "ankle", "heel", "toe")
 
+#: The gait2d segment each landmark moves with (without the side): the hip joint centre is
+#: the trunk's origin, the lateral epicondyle sits on the femur, the malleolus on the shank.
+LANDMARK_SEGMENTS: dict[str, str] = {
+    "shoulder": "trunk",
+    "hip": "trunk",
+    "knee": "thigh",
+    "ankle": "shank",
+    "heel": "foot",
+    "toe": "foot",
+}
+
+
+def landmark_segment(side: str, landmark: str) -> str:
+    """The gait2d segment (:data:`colloc.models.gait2d_markers.SEGMENTS`) a landmark of one
+    side moves with: ``trunk``, or ``<side>_thigh``, ``<side>_shank``, ``<side>_foot``."""
+    segment = LANDMARK_SEGMENTS[landmark]
+    return segment if segment == "trunk" else f"{side}_{segment}"
+
 
 @dataclass(frozen=True)
 class MarkerSet:

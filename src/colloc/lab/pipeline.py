@@ -15,9 +15,9 @@ The steps a gait lab takes, each stated in the trial's metadata (``lab``):
    the plate under its foot (:mod:`colloc.lab.dynamics`);
 6. heel strikes where a foot's filtered vertical force rises through ``strike_threshold``;
    centre of pressure ``MomZ / ForY`` where the foot is loaded;
-7. the landmarks' unfiltered positions (gaps left as gaps) and the plates at their own rate
-   kept beside the signals (:mod:`colloc.lab.raw_tables`), for the smoother that tracks
-   them.
+7. the tracked markers' unfiltered positions (gaps left as gaps) and the plates at their own
+   rate kept beside the signals (:mod:`colloc.lab.raw_tables`), for the smoother that tracks
+   them: the landmarks, or the clusters and skin markers they were made from.
 
 The noise levels the identification weighs the signals by are estimated from the record
 itself: the robust spread (1.4826 times the median absolute deviation) of the unfiltered minus
@@ -55,6 +55,7 @@ from colloc.data.filtering import (
 from colloc.data.trial import Trial
 from colloc.gait.strikes import UNLOADED_FORCE
 from colloc.gait.trials import DEFAULT_NOISE_STD
+from colloc.lab.ankle import ankle_height
 from colloc.lab.dynamics import LegInertia, leg_inverse_dynamics
 from colloc.lab.exports import LabExport, LabFileError
 from colloc.lab.gaps import GAP_CONTEXT, Gap, fill_gaps
@@ -69,9 +70,10 @@ from colloc.lab.plausibility import (
     spikes,
     threshold_problems,
 )
-from colloc.lab.raw_tables import raw_records
+from colloc.lab.raw_tables import landmark_segments, marker_table, raw_records, tracked_positions
 from colloc.lab.sagittal import plates_under_feet
 from colloc.lab.settings import LabSettings, check_settings
+from colloc.models.gait2d_markers import SEGMENTS
 from colloc.models.gait2d_params import Gait2DParameters, load_parameters
 from colloc.store.ids import package_versions
 
@@ -111,7 +113,10 @@ class LabResult:
 
 
 def process_lab(
-    markers: LabExport, settings: LabSettings, forces: LabExport | None = None
+    markers: LabExport,
+    settings: LabSettings,
+    forces: LabExport | None = None,
+    tracked: dict[str, str] | None = None,
 ) -> LabResult:
     """Make a gait trial of lab exports already read.
 
@@ -122,6 +127,11 @@ def process_lab(
     settings : LabSettings
     forces : LabExport, optional
         The plates, on their own time stamps.
+    tracked : dict, optional
+        The markers the trial keeps unfiltered for the marker smoother, each with the gait2d
+        segment it moves with (:data:`colloc.models.gait2d_markers.SEGMENTS`): the clusters
+        and skin markers the landmarks were made from
+        (:func:`colloc.lab.landmarks.landmark_record`). By default the landmarks themselves.
 
     Returns
     -------
@@ -160,6 +170,8 @@ def process_lab(
             f"belt_speed: no column {belt_column!r} in the exports (found "
             f"{', '.join(sorted(columns)) or 'none'})"
         )
+    if tracked is not None:
+        problems += _tracked_problems(tracked, markers)
     unit_notes: list[str] = []
     if not problems:
         params = load_parameters(settings.body_mass, settings.height)
@@ -276,6 +288,19 @@ def process_lab(
         f"default {DEFAULT_NOISE_STD[group]:g} is used; set it if you know better"
         for group in noise["unmeasured"]
     ]
+    landmarks_raw = {name: xy[kept_rows] for name, xy in wanted.items()}
+    if tracked is None:
+        segments, kept, marker_std = landmark_segments(ms), landmarks_raw, noise["marker_std"]
+    else:
+        kept, marker_std, spike_notes = tracked_positions(
+            markers.time,
+            {name: markers.markers[name] for name in tracked},
+            kept_rows,
+            fs,
+            settings.cutoff_hz,
+        )
+        segments = dict(tracked)
+        notes += spike_notes
     metadata = {
         "sample_rate": float(f"{fs:.9g}"),  # not 99.99999999999991 from the time stamps
         "body_mass": float(settings.body_mass),
@@ -284,13 +309,36 @@ def process_lab(
         "lab": _processing(settings, fs, gaps, time, lengths, strikes, notes),
         "package_versions": package_versions(),
     }
-    tables, recorded = raw_records(
-        time, {name: xy[kept_rows] for name, xy in wanted.items()}, plates, ms, noise["marker_std"]
+    tables, recorded = raw_records(time, kept, segments, plates, ms, marker_std)
+    height = ankle_height(
+        marker_table(time, landmarks_raw),
+        tables["plates"],
+        landmark_segments(ms),
+        settings.body_mass,
+        params.contact.stiffness,
+        params.gravity,
     )
+    if height is not None:
+        recorded["markers"]["ankle_height_m"] = height
     metadata.update(recorded)
     trial = Trial(time, signals, strikes["right"], strikes["left"], metadata, tables)
     trial.validate()
     return LabResult(trial=trial, gaps=gaps, notes=notes)
+
+
+def _tracked_problems(tracked: Any, markers: LabExport) -> list[str]:
+    """What is wrong with the markers asked to be tracked: not a mapping of names in the
+    export to gait2d's segments."""
+    if not isinstance(tracked, dict) or not tracked:
+        return [f"tracked: expected a mapping of marker -> segment, found {tracked!r}"]
+    absent = sorted(str(n) for n in tracked if n not in markers.markers)
+    unknown = sorted({str(s) for s in tracked.values() if s not in SEGMENTS})
+    out = []
+    if absent:
+        out.append(f"tracked: {', '.join(absent)} not in {markers.source or 'the export'}")
+    if unknown:
+        out.append(f"tracked: segments expected among {list(SEGMENTS)}, found {unknown}")
+    return out
 
 
 def _metres(

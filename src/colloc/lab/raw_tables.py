@@ -2,10 +2,12 @@
 
 :func:`colloc.lab.pipeline.process_lab` makes the trial's signals through a filter, inverse
 kinematics and inverse dynamics. The smoother that tracks markers and plates
-(:class:`colloc.identify.gait.markers.MarkerModel`) needs what came before those steps: each
-landmark's sagittal position, unfiltered and with its gaps left as gaps, at the marker rate,
-and each foot's plate at the plate rate. Each marker is assigned to the gait2d segment it
-moves with (:data:`LANDMARK_SEGMENTS`).
+(:func:`colloc.identify.gait.markers.marker_smoother`) needs what came before those steps:
+each tracked marker's sagittal position, unfiltered and with its gaps left as gaps, at the
+marker rate, and each foot's plate at the plate rate. Each marker is assigned to the gait2d
+segment it moves with: a landmark's (:data:`colloc.lab.markers.LANDMARK_SEGMENTS`), or, for
+clusters and skin markers, the segment whose cluster it belongs to
+(:func:`colloc.lab.landmarks.landmark_record`).
 """
 
 from __future__ import annotations
@@ -16,27 +18,25 @@ import numpy as np
 import pandas as pd
 
 from colloc.data.columns import SIDES, TIME_COLUMN
+from colloc.data.filtering import zero_lag_lowpass
 from colloc.data.tables import PLATE_COLUMNS
 from colloc.lab.exports import LabExport
-from colloc.lab.markers import LANDMARKS, MarkerSet
-from colloc.lab.noise import off_plate_noise
-
-#: The gait2d segment each landmark moves with (without the side): the hip joint centre is
-#: the trunk's origin, the lateral epicondyle sits on the femur, the malleolus on the shank.
-LANDMARK_SEGMENTS: dict[str, str] = {
-    "shoulder": "trunk",
-    "hip": "trunk",
-    "knee": "thigh",
-    "ankle": "shank",
-    "heel": "foot",
-    "toe": "foot",
-}
+from colloc.lab.markers import LANDMARKS, MarkerSet, landmark_segment
+from colloc.lab.noise import off_plate_noise, robust_sd
+from colloc.lab.plausibility import MAX_MARKER_SPEED, spikes
 
 
-def marker_table(
-    time: np.ndarray, markers: dict[str, np.ndarray], ms: MarkerSet
-) -> tuple[pd.DataFrame, dict[str, str]]:
-    """The landmarks' raw positions and the segment each one moves with.
+def landmark_segments(ms: MarkerSet) -> dict[str, str]:
+    """Each landmark marker of ``ms`` -> the gait2d segment it moves with."""
+    return {
+        ms.marker(side, landmark): landmark_segment(side, landmark)
+        for side in SIDES
+        for landmark in LANDMARKS
+    }
+
+
+def marker_table(time: np.ndarray, markers: dict[str, np.ndarray]) -> pd.DataFrame:
+    """The markers' raw positions as a table.
 
     Parameters
     ----------
@@ -44,25 +44,74 @@ def marker_table(
         The trial's times (the markers' own).
     markers : dict
         Marker name -> (N, 2) sagittal positions [m], NaN where not seen.
-    ms : MarkerSet
 
     Returns
     -------
-    table : DataFrame
+    DataFrame
         ``time``, ``<marker>_x``, ``<marker>_y``.
-    segments : dict
-        Marker name -> ``<side>_<segment>`` (``trunk`` for the trunk's).
     """
     columns: dict[str, np.ndarray] = {TIME_COLUMN: np.asarray(time, dtype=float)}
-    segments = {}
-    for side in SIDES:
-        for landmark in LANDMARKS:
-            name = ms.marker(side, landmark)
-            xy = np.asarray(markers[name], dtype=float)
-            columns[f"{name}_x"], columns[f"{name}_y"] = xy[:, 0], xy[:, 1]
-            segment = LANDMARK_SEGMENTS[landmark]
-            segments[name] = segment if segment == "trunk" else f"{side}_{segment}"
-    return pd.DataFrame(columns), segments
+    for name, xy in markers.items():
+        xy = np.asarray(xy, dtype=float)
+        columns[f"{name}_x"], columns[f"{name}_y"] = xy[:, 0], xy[:, 1]
+    return pd.DataFrame(columns)
+
+
+def tracked_positions(
+    time: np.ndarray,
+    markers: dict[str, np.ndarray],
+    rows: np.ndarray,
+    rate: float,
+    cutoff_hz: float,
+) -> tuple[dict[str, np.ndarray], float, list[str]]:
+    """Skin markers as the smoother tracks them: unfiltered, on the trial's rows, a sample
+    that jumps away and back faster than a body moves (:func:`colloc.lab.plausibility.spikes`)
+    and every gap left out (NaN), and their noise.
+
+    Parameters
+    ----------
+    time : ndarray, shape (M,)
+        The record's times (before its ends were cut).
+    markers : dict
+        Marker name -> (M, 2) sagittal positions [m], NaN where not seen.
+    rows : ndarray of int
+        The record's rows the trial keeps.
+    rate : float
+        The marker rate [Hz].
+    cutoff_hz : float
+        The low-pass cut-off the noise is read against.
+
+    Returns
+    -------
+    positions : dict
+        Marker name -> (len(rows), 2).
+    noise : float
+        1.4826 times the median absolute deviation of each marker's samples from their
+        low-pass filtered course (gaps bridged linearly for the filter only), over all.
+    notes : list of str
+        One per marker with spikes.
+    """
+    positions, residuals, notes = {}, [], []
+    found = spikes(markers, rate)
+    for name, xy in markers.items():
+        xy = np.array(xy, dtype=float)
+        if name in found:
+            xy[found[name]] = np.nan
+            notes.append(
+                f"marker {name}: {found[name].size} sample(s) jump away and back faster than "
+                f"{MAX_MARKER_SPEED:g} m/s (first at t = {time[found[name][0]]:g} s): left out"
+            )
+        kept = xy[rows]
+        seen = np.all(np.isfinite(kept), axis=1)
+        positions[name] = kept
+        if seen.sum() < 2:
+            continue
+        bridged = np.column_stack(
+            [np.interp(time[rows], time[rows][seen], kept[seen, k]) for k in range(2)]
+        )
+        residuals.append((kept - zero_lag_lowpass(bridged, rate, cutoff_hz))[seen].ravel())
+    noise = robust_sd(np.concatenate(residuals)) if residuals else 0.0
+    return positions, noise, notes
 
 
 def plate_table(plates: LabExport, ms: MarkerSet, start: float, stop: float) -> pd.DataFrame:
@@ -111,6 +160,7 @@ def plate_noise(table: pd.DataFrame) -> dict[str, float]:
 def raw_records(
     time: np.ndarray,
     markers: dict[str, np.ndarray],
+    segments: dict[str, str],
     plates: LabExport,
     ms: MarkerSet,
     marker_std: float,
@@ -123,8 +173,11 @@ def raw_records(
         The trial's times.
     markers : dict
         Marker name -> raw sagittal positions on ``time``, NaN in gaps.
+    segments : dict
+        Marker name -> the gait2d segment it moves with.
     plates : LabExport
     ms : MarkerSet
+        Which plate is under which foot.
     marker_std : float
         The markers' noise [m] (estimated from the record).
 
@@ -134,12 +187,12 @@ def raw_records(
     metadata : dict
         ``markers`` (segments, noise, rate) and ``plates`` (noise, rate) entries.
     """
-    markers_table, segments = marker_table(time, markers, ms)
+    markers_table = marker_table(time, markers)
     plates_table = plate_table(plates, ms, float(time[0]), float(time[-1]))
     noise = plate_noise(plates_table)
     meta = {
         "markers": {
-            "segments": segments,
+            "segments": {name: segments[name] for name in markers},
             "noise_std_m": float(marker_std),
             "estimated": "1.4826 x the median absolute deviation of the unfiltered minus the "
             "filtered marker positions",

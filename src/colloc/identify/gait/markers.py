@@ -1,6 +1,6 @@
 """The smoother that tracks a lab's raw markers and force plates, not its filtered angles.
 
-A lab trial (:func:`colloc.lab.trial_from_lab`) keeps the landmarks' unfiltered positions and
+A lab trial (:func:`colloc.lab.trial_from_lab`) keeps its markers' unfiltered positions and
 the plates at their own rate (:mod:`colloc.data.tables`). Here each marker becomes a point
 fixed in its gait2d segment (:mod:`colloc.models.gait2d_markers`) and each plate the
 contact model's force and moment under its foot, so the smoother's objective is the
@@ -29,7 +29,7 @@ segments. Those positions are the least-squares fixed points
 of the start's segments (:func:`colloc.models.gait2d_markers.local_positions`); the thigh
 and shank lengths are the markers' mean joint-to-joint distances, so that the landmarks
 on the joints stay on them, and the ankle's height above the sole is the one the loaded feet
-show (:func:`ankle_height`), so that the model's sole meets the floor where the subject's
+show (:func:`colloc.lab.ankle.ankle_height`, recorded by the lab), so that the model's sole meets the floor where the subject's
 does.
 """
 
@@ -54,6 +54,7 @@ from colloc.data.tables import marker_names
 from colloc.identify.gait.smoother import GaitSmoother
 from colloc.identify.gait.smoother_settings import SmootherSettings
 from colloc.identify.gait.trial_noise import trial_noise_std
+from colloc.lab.ankle import ankle_height
 
 #: Marker noise [m] used when the record shows none (a noise-free synthetic export).
 DEFAULT_MARKER_STD = 1e-3
@@ -245,46 +246,6 @@ def measured_lengths(meta: Mapping[str, Any]) -> dict[str, float]:
     return out
 
 
-#: Share of the body weight above which a foot counts as loaded for the ankle's height.
-LOADED_SHARE = 0.8
-
-
-def ankle_height(
-    markers: pd.DataFrame,
-    plates: pd.DataFrame,
-    segments: Mapping[str, str],
-    body_mass: float,
-    stiffness: float,
-    gravity: float = 9.81,
-) -> float | None:
-    """The ankle's height above the sole that the record shows (gait2d's ``h_ankle``): on
-    each sample where a foot carries more than :data:`LOADED_SHARE` of the body weight, the
-    height of its shank's lowest marker (the malleolus) plus the contact model's sinking
-    under that load (heel and toe sharing it: ``(F / 2k)^(1/3)`` with the cubic stiffness
-    ``k``); the lower quartile over both feet (the foot flat, its ankle lowest; heel or toe
-    alone lift it). On a simulated walk's export 0.0697 m against the model's 0.0703 m; on
-    OpenSim's example walk 0.124-0.128 m against the 0.070 m gait2d scales from the height.
-
-    Returns
-    -------
-    float or None
-        None when no sample is loaded enough or no shank marker was seen.
-    """
-    stamp = markers[TIME_COLUMN].to_numpy(dtype=float)
-    estimates = []
-    for side in SIDES:
-        names = [n for n, seg in segments.items() if seg == f"{side}_shank"]
-        if not names:
-            continue
-        heights = {n: markers[f"{n}_y"].to_numpy(dtype=float) for n in names}
-        lowest = min(names, key=lambda n: float(np.nanmean(heights[n])))
-        force = np.interp(stamp, plates[TIME_COLUMN], plates[f"{side}_force_y"])
-        loaded = (force > LOADED_SHARE * body_mass * gravity) & np.isfinite(heights[lowest])
-        estimates.append(heights[lowest][loaded] + np.cbrt(force[loaded] / (2.0 * stiffness)))
-    found = np.concatenate(estimates) if estimates else np.empty(0)
-    return float(np.percentile(found, 25)) if found.size else None
-
-
 def marker_smoother(
     dynamics: Any,
     trial: Any,
@@ -353,13 +314,15 @@ def marker_smoother(
     lengths = measured_lengths(meta)
     constants = {getattr(s, f"l_{k}"): v for k, v in lengths.items()}
     if use_plates and "plates" in trial.tables:
-        height = ankle_height(
-            trial.tables["markers"],
-            trial.tables["plates"],
-            segments,
-            float(meta.get("body_mass", 75.0)),
-            float(dynamics.constants[gait.contact_symbols.stiffness]),
-        )
+        height = meta["markers"].get("ankle_height_m")
+        if not _positive(height):  # a trial written before the lab recorded it
+            height = ankle_height(
+                trial.tables["markers"],
+                trial.tables["plates"],
+                segments,
+                float(meta.get("body_mass", 75.0)),
+                float(dynamics.constants[gait.contact_symbols.stiffness]),
+            )
         if height is not None:
             constants[s.h_ankle] = height
             lengths["ankle_height"] = height
