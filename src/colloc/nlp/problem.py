@@ -16,6 +16,7 @@ from colloc.model.model import Model
 from colloc.model.symbols import name_of
 from colloc.nlp.assembly import AssembledNLP
 from colloc.nlp.build import build_templates
+from colloc.nlp.free_vector import UNBOUNDED, FreeVector
 from colloc.nlp.known import KnownTrajectory
 from colloc.nlp.layout import Layout
 from colloc.nlp.objective import DisturbancePrior, NodeTerm, ObjectiveTerm, Tracking
@@ -35,6 +36,7 @@ from colloc.nlp.spec import (
     check_trajectories,
     model_instance_constraints,
     parse_instance_constraints,
+    same_keys,
 )
 from colloc.nlp.templates import Partition
 from colloc.solve.gauss_newton import ChainStructure, GaussNewtonOptions, solve_gauss_newton
@@ -44,10 +46,8 @@ from colloc.transcription.base import Scheme, TimeGrid
 from colloc.transcription.interpolation import Interpolation
 from colloc.transcription.midpoint import Midpoint
 
-_INF = 1e20  # IPOPT treats |bound| >= 1e19 as infinite
 
-
-class Problem:
+class Problem(FreeVector):
     """A direct-collocation NLP for a model on a time grid.
 
     Parameters
@@ -227,12 +227,6 @@ class Problem:
         return tuple(self._node_terms)
 
     @property
-    def free_quantities(self) -> tuple[sm.Basic, ...]:
-        """The states, free inputs and unknown parameters: what the solve determines."""
-        part = self.partition
-        return tuple(self.model.states) + part.free_inputs + part.unknown_parameters
-
-    @property
     def size(self) -> dict[str, int]:
         """``nodes``, ``variables``, ``constraints``, ``nnz_jacobian``, ``nnz_hessian``."""
         lay = self.layout
@@ -321,11 +315,11 @@ class Problem:
             measured = check_measured_inputs(
                 self.model, measured_inputs, self.known_trajectories, N, problems
             )
-            _same_keys("measured_inputs", "inputs", self.measured_inputs, measured, problems)
+            same_keys("measured_inputs", "inputs", self.measured_inputs, measured, problems)
         noise = self.process_noise
         if process_noise is not None:
             noise = check_process_noise(self.model, process_noise, problems)
-            _same_keys("process_noise", "disturbances", self.process_noise, noise, problems)
+            same_keys("process_noise", "disturbances", self.process_noise, noise, problems)
         terms = self._node_terms
         if objective is not None or measured_inputs is not None or process_noise is not None:
             if objective is not None:  # every term built anew
@@ -361,165 +355,6 @@ class Problem:
         self.measured_inputs, self.process_noise = measured, noise
         self._node_terms = terms
         self.nlp = self._assemble(self._templates, terms, self._ic_locs)
-
-    # ---------------------------------------------------------------- bounds and guesses
-    def variable_bounds(self) -> tuple[np.ndarray, np.ndarray]:
-        """Lower and upper bounds of the free vector (``±1e20`` where unbounded)."""
-        lay = self.layout
-        lo, hi = np.full(lay.num_variables, -_INF), np.full(lay.num_variables, _INF)
-        for s, (a, b) in self.bounds.items():
-            idx = self._free_indices(s)
-            lo[idx], hi[idx] = a, b
-        return np.maximum(lo, -_INF), np.minimum(hi, _INF)
-
-    def variable_scale(self, scale: Mapping[sm.Basic, Any] | None) -> np.ndarray:
-        """Typical magnitude of every free variable: those given, 1 elsewhere.
-
-        Parameters
-        ----------
-        scale : mapping, optional
-            State, free input or unknown parameter -> a positive typical magnitude.
-
-        Returns
-        -------
-        ndarray, shape (num_variables,)
-
-        Raises
-        ------
-        ValueError
-            When a key is not a free quantity or a value is not a positive finite number.
-        """
-        out = np.ones(self.layout.num_variables)
-        if scale is None:
-            return out
-        if not isinstance(scale, Mapping):
-            raise ValueError(
-                f"scale: expected a mapping symbol -> typical magnitude, found "
-                f"{type(scale).__name__}"
-            )
-        free = set(self.free_quantities)
-        problems = []
-        for s, value in scale.items():
-            try:
-                v = float(value)
-            except (TypeError, ValueError):
-                v = float("nan")
-            if s not in free:
-                problems.append(f"{name_of(s)} is not a state, free input or unknown parameter")
-            elif not (np.isfinite(v) and v > 0):
-                problems.append(f"{name_of(s)}: expected a positive number, found {value!r}")
-            else:
-                out[self._free_indices(s)] = v
-        if problems:
-            raise ValueError("scale: " + "; ".join(problems))
-        return out
-
-    def _free_indices(self, s: sm.Basic) -> np.ndarray:
-        """Where a state, free input or unknown parameter sits in the free vector (a state's
-        interval copies included)."""
-        lay, name = self.layout, name_of(s)
-        if name not in lay.node_names:
-            return np.array([lay.variable_index(name)])
-        idx = np.asarray(lay.node_indices(name))
-        mid = f"{name}_mid"
-        if mid in lay.interval_names:
-            j = lay.interval_names.index(mid)
-            step = lay.num_interval_variables * np.arange(lay.num_nodes - 1)
-            idx = np.concatenate([idx, lay.interval_offset + j + step])
-        return idx
-
-    def initial_guess(
-        self,
-        trajectories: Mapping[sm.Basic, np.ndarray | float] | np.ndarray | None = None,
-        parameters: Mapping[sm.Symbol, float] | np.ndarray | Sequence[float] | None = None,
-        default: float = 0.0,
-    ) -> np.ndarray:
-        """Build a free vector from trajectories and parameter values.
-
-        Derivative variables (trapezoidal, Hermite-Simpson) are filled by finite differences
-        of the state guesses and midpoint states by interpolation, so a good state guess
-        gives a nearly feasible start. Measured inputs not given start at their measurement.
-
-        Parameters
-        ----------
-        trajectories : mapping or ndarray, optional
-            State or free-input symbol -> values at the nodes (shape ``(N,)``) or a constant;
-            or an array of shape ``(N, n)`` whose columns are the model's states in order,
-            or ``(N, n + m)``: the states, then the free inputs
-            (``problem.partition.free_inputs``).
-        parameters : mapping or array, optional
-            Unknown parameter symbol -> value, or the values of every unknown parameter in
-            the order of ``problem.layout.parameter_names``.
-        default : float
-            Value of everything not given.
-
-        Returns
-        -------
-        ndarray
-            The free vector, for :meth:`solve` or :meth:`solve_gauss_newton`.
-
-        Raises
-        ------
-        ValueError
-            When an array has another shape than those above, naming the expected one.
-        KeyError
-            When a mapping names a symbol that is not a state, free input or unknown
-            parameter.
-        """
-        lay = self.layout
-        trajectories = self._trajectories_by_symbol(trajectories)
-        parameters = self._parameters_by_symbol(parameters)
-        given = dict(trajectories or {})
-        for r, (values, _) in self.measured_inputs.items():
-            if r not in given:
-                ok = ~np.isnan(values)
-                given[r] = np.interp(self.grid.times, self.grid.times[ok], values[ok])
-        nodes = {name_of(s): v for s, v in given.items()}
-        params = {name_of(p): v for p, v in (parameters or {}).items()}
-        z = lay.fill(nodes, params, default=default)
-        X = lay.node_matrix(z)
-        n = self.model.num_states
-        states = X[:, :n]
-        if self.scheme.node_derivatives:
-            nf = len(self.partition.free_inputs)
-            X[:, n + nf : 2 * n + nf] = np.gradient(states, self.grid.times, axis=0)
-        if lay.num_interval_variables:
-            lay.interval_matrix(z)[:] = self.scheme.interval_guess(states, self.grid)
-        return z
-
-    def _trajectories_by_symbol(
-        self, trajectories: Mapping[sm.Basic, np.ndarray | float] | np.ndarray | None
-    ) -> Mapping[sm.Basic, np.ndarray | float] | None:
-        """An array of trajectories as a mapping by symbol (states, then free inputs)."""
-        if trajectories is None or isinstance(trajectories, Mapping):
-            return trajectories
-        values = np.asarray(trajectories, dtype=float)
-        states, free = list(self.model.states), list(self.partition.free_inputs)
-        N = self.layout.num_nodes
-        shapes = [(N, len(states))] + ([(N, len(states) + len(free))] if free else [])
-        if values.shape not in shapes:
-            raise ValueError(
-                f"trajectories: expected a mapping by symbol or an array of shape "
-                f"{' or '.join(map(str, shapes))} (columns: "
-                f"{[name_of(x) for x in states + free]}), found shape {values.shape}"
-            )
-        return dict(zip(states + free, values.T, strict=False))
-
-    def _parameters_by_symbol(
-        self, parameters: Mapping[sm.Symbol, float] | np.ndarray | Sequence[float] | None
-    ) -> Mapping[sm.Symbol, float] | None:
-        """An array of parameter values as a mapping by symbol (the layout's order)."""
-        if parameters is None or isinstance(parameters, Mapping):
-            return parameters
-        values = np.asarray(parameters, dtype=float)
-        unknown = self.partition.unknown_parameters
-        if values.shape != (len(unknown),):
-            raise ValueError(
-                f"parameters: expected a mapping by symbol or an array of shape "
-                f"({len(unknown)},) in the order of layout.parameter_names, found shape "
-                f"{values.shape}"
-            )
-        return dict(zip(unknown, values, strict=True))
 
     # ---------------------------------------------------------------- solve
     def solve(
@@ -634,7 +469,7 @@ class Problem:
                 f"constraints {others}: the Gauss-Newton solver takes only the interval defects"
             )
         lo, hi = self.variable_bounds()
-        if np.any(lo > -_INF) or np.any(hi < _INF):
+        if np.any(lo > -UNBOUNDED) or np.any(hi < UNBOUNDED):
             problems.append("bounds: the Gauss-Newton solver does not take bounds")
         raise_if_any(problems, ProblemDefinitionError)
         N = lay.num_nodes
@@ -697,25 +532,6 @@ class Problem:
         )
 
 
-def _same_keys(
-    option: str, what: str, built: Mapping[Any, Any], new: Mapping[Any, Any], problems: list[str]
-) -> None:
-    """Name the difference when ``new`` does not cover the built problem's ``built`` keys
-    (only once the new values are otherwise valid)."""
-    if set(new) != set(built) and not problems:
-        problems.append(
-            f"{option}: expected the same {what} as the built problem "
-            f"{[_key_name(k) for k in built]}, found {[_key_name(k) for k in new]}"
-        )
-
-
-def _key_name(key: Any) -> str:
-    """A symbol's name, or a group's ``(a, b)``."""
-    if isinstance(key, tuple):
-        return "(" + ", ".join(map(name_of, key)) + ")"
-    return name_of(key)
-
-
 def solution_from_result(problem: Problem, result: SolveResult) -> Solution:
     """A :class:`Solution` from a solve's raw result, named with the problem's layout: the
     trajectories, the estimates beside the known values, the parameters a bound holds, the
@@ -742,7 +558,7 @@ def solution_from_result(problem: Problem, result: SolveResult) -> Solution:
     params.update(zip(problem.partition.unknown_parameters, map(float, est), strict=True))
     status = replace(
         result.status,
-        at_bounds=_at_bounds(problem, est),
+        at_bounds=problem.parameters_at_bounds(est),
         notes=result.status.notes + tuple(systematic_misfit(problem, result.x)),
     )
     stats = SolveStats.from_result(
@@ -766,22 +582,4 @@ def solution_from_result(problem: Problem, result: SolveResult) -> Solution:
         stats,
         result.x.copy(),
         result.multipliers,
-    )
-
-
-def _at_bounds(problem: Problem, estimates: np.ndarray) -> tuple[str, ...]:
-    """Names of the unknown parameters within ``1e-6 (1 + |bound|)`` of a finite bound."""
-    lo, hi = problem.variable_bounds()
-    offset = problem.layout.parameter_offset
-    lo, hi = lo[offset:], hi[offset:]
-    near = np.zeros(estimates.shape, bool)
-    for bound in (lo, hi):
-        finite = np.abs(bound) < 1e19  # unbounded is +-1e20
-        near[finite] |= np.abs(estimates[finite] - bound[finite]) <= 1e-6 * (
-            1.0 + np.abs(bound[finite])
-        )
-    return tuple(
-        name_of(p)
-        for p, flag in zip(problem.partition.unknown_parameters, near, strict=True)
-        if flag
     )

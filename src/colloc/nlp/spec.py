@@ -465,3 +465,23 @@ def check_measured_inputs(
         elif std is not None:
             out[r] = (arr, std)
     return out
+
+
+def same_keys(
+    option: str, what: str, built: Mapping[Any, Any], new: Mapping[Any, Any], problems: list[str]
+) -> None:
+    """Name the difference when ``new`` does not cover the built problem's ``built`` keys
+    (only once the new values are otherwise valid): ``option`` is the argument, ``what``
+    its keys in words; the message is appended to ``problems``."""
+    if set(new) != set(built) and not problems:
+        problems.append(
+            f"{option}: expected the same {what} as the built problem "
+            f"{[key_name(k) for k in built]}, found {[key_name(k) for k in new]}"
+        )
+
+
+def key_name(key: Any) -> str:
+    """A symbol's name, or a group's ``(a, b)``."""
+    if isinstance(key, tuple):
+        return "(" + ", ".join(map(name_of, key)) + ")"
+    return name_of(key)
