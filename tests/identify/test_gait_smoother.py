@@ -281,7 +281,7 @@ def test_a_diverging_solve_is_stopped_at_its_objective_ceiling(window, dynamics,
     """A stage whose objective climbs past DIVERGED_OBJECTIVE_FACTOR times its start's is
     stopped at that iteration (not left to its iteration budget): with the factor at 1e-12
     every stage is, so the first backward-Euler solve ends at once, by the user's stop."""
-    import colloc.identify.gait.smoother as module
+    import colloc.identify.gait.smoother_solve as module
 
     t, q, v, T = window
     monkeypatch.setattr(module, "DIVERGED_OBJECTIVE_FACTOR", 1e-12)

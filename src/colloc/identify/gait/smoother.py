@@ -41,13 +41,12 @@ from colloc.identify.gait.smoother_results import SmoothedGait, SmootherError, S
 from colloc.identify.gait.smoother_settings import (
     COMPLETION_STEPS,
     COMPLETION_TOL,
-    DIVERGED_DUAL_INFEASIBILITY,
-    DIVERGED_OBJECTIVE_FACTOR,
     DIVERGED_OBJECTIVE_FACTOR_WARM_START,
     FULL_WEIGHTS_STEPS,
     Progress,
     SmootherSettings,
 )
+from colloc.identify.gait.smoother_solve import attempt_stage, stage_record
 from colloc.identify.gait.smoother_start import consistent_completion, lowpass
 from colloc.identify.gait.trial_noise import trial_noise_std
 from colloc.model.symbols import name_of
@@ -402,10 +401,15 @@ class GaitSmoother:
             clock = time.perf_counter()
             say("start", "filtered positions, inverse dynamics through the scheme")
             z = self.start(midpoint)
-            stages.append(self._stage("start", midpoint, z, v0, "Consistent", True, 0, clock))
+            stages.append(stage_record("start", midpoint, z, v0, "Consistent", True, 0, clock))
             say(name, f"from its own zero-defect start, v_s = {v0:g} m/s")
         z = self._solve(
-            midpoint, z, name, v0, stages, ceiling_factor=DIVERGED_OBJECTIVE_FACTOR_WARM_START
+            midpoint,
+            z,
+            name,
+            v0,
+            stages,
+            ceiling_factor=DIVERGED_OBJECTIVE_FACTOR_WARM_START,
         )
         say(name, stages[-1].describe())
 
@@ -509,7 +513,7 @@ class GaitSmoother:
             say("start", f"window{label}: filtered positions, inverse dynamics")
             euler = part.problem(BackwardEuler(), v0)
             z = part.start(euler)
-            stages.append(part._stage("start" + label, euler, z, v0, "Consistent", True, 0, clock))
+            stages.append(stage_record("start" + label, euler, z, v0, "Consistent", True, 0, clock))
             say("backward-euler", f"window{label}: {stop - first} nodes, v_s = {v0:g} m/s")
             z = part._solve(euler, z, "backward-euler" + label, v0, stages)
             say("backward-euler", stages[-1].describe())
@@ -536,10 +540,8 @@ class GaitSmoother:
         max_iter: int | None = None,
         ceiling_factor: float | None = None,
     ) -> np.ndarray:
-        """One stage's solve, recorded in ``stages``; raises :class:`SmootherError` when it
-        does not converge (within ``max_iter``, default the settings'), naming it and the
-        stages before it. A solve whose objective passes ``ceiling_factor`` (default
-        :data:`DIVERGED_OBJECTIVE_FACTOR`) times its start's is stopped as diverging."""
+        """One stage's solve (:meth:`_attempt`), recorded in ``stages``; raises
+        :class:`SmootherError` when it does not converge, naming it and the stages before."""
         stage, z_new = self._attempt(problem, z, name, v_s, max_iter, ceiling_factor)
         stages.append(stage)
         if not stage.success:
@@ -560,54 +562,8 @@ class GaitSmoother:
         max_iter: int | None = None,
         ceiling_factor: float | None = None,
     ) -> tuple[SmootherStage, np.ndarray]:
-        clock = time.perf_counter()
-        limit = self.settings.max_iter if max_iter is None else max_iter
-        factor = DIVERGED_OBJECTIVE_FACTOR if ceiling_factor is None else ceiling_factor
-        ceiling = factor * max(float(problem.nlp.objective(z)), 1.0)
-
-        def converging(row: dict[str, float]) -> bool:  # False stops the solve
-            dual = row.get("dual_infeasibility", 0.0)
-            return bool(row["objective"] <= ceiling and dual <= DIVERGED_DUAL_INFEASIBILITY)
-
-        solution = problem.solve(
-            z, progress=converging, **{"max_iter": limit, **self.settings.ipopt_options}
-        )
-        st = solution.stats
-        stage = self._stage(
-            name,
-            problem,
-            solution.z,
-            v_s,
-            str(st["status"]),
-            bool(st["success"]),
-            int(st["iterations"]),
-            clock,
-        )
-        return stage, np.asarray(solution.z)
-
-    @staticmethod
-    def _stage(
-        name: str,
-        problem: Any,
-        z: np.ndarray,
-        v_s: float,
-        status: str,
-        success: bool,
-        iterations: int,
-        clock: float,
-    ) -> SmootherStage:
-        defects = problem.defects(z)
-        return SmootherStage(
-            name,
-            problem.scheme.name,
-            float(v_s),
-            status,
-            success,
-            iterations,
-            time.perf_counter() - clock,
-            float(problem.nlp.objective(z)),
-            float(np.max(np.abs(defects))) if defects.size else 0.0,
-        )
+        """:func:`colloc.identify.gait.smoother_solve.attempt_stage` with these settings."""
+        return attempt_stage(problem, z, name, v_s, self.settings, max_iter, ceiling_factor)
 
     def _result(
         self, problem: Any, z: np.ndarray, stages: list[SmootherStage], started: float
