@@ -21,94 +21,49 @@ import dataclasses
 import math
 import warnings
 from collections.abc import Sequence
-from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
 import numpy as np
-import scipy.sparse as sp
-import sympy as sm
 
 from colloc.model.symbols import name_of
-from colloc.nlp.autocorrelated import autoregressive_covariance, autoregressive_obstacle
 from colloc.nlp.influence import effective_variance
 from colloc.nlp.kkt import ReducedKKT
-from colloc.nlp.residuals import SignalResiduals
-from colloc.nlp.sandwich_blocks import (
-    block_gradients,
-    check_blocks_per_parameter,
-    trial_block_starts,
-)
-from colloc.nlp.scores import per_sample, signal_slopes, trial_residuals
+from colloc.nlp.scores import signal_slopes, trial_residuals
 from colloc.nlp.trials import Trials, TrialsSolution, as_trials
+from colloc.nlp.uncertainty_autoregressive import Autoregressive, CannotModel
+from colloc.nlp.uncertainty_base import (
+    Blocks,
+    FitPoint,
+    ParameterUncertainty,
+    UncertaintyMethod,
+    make_result,
+)
 from colloc.nlp.uncertainty_choice import choose_method
+from colloc.nlp.uncertainty_kkt import KKT, PRIOR_UNIT_RANGE
+from colloc.nlp.uncertainty_sandwich import Sandwich
+
+__all__ = [
+    "METHODS",
+    "PRIOR_UNIT_RANGE",
+    "DiscretisationWarning",
+    "ParameterUncertainty",
+    "count_measurements",
+    "cramer_rao_bound",
+    "parameter_uncertainty",
+]
 
 if TYPE_CHECKING:
     from colloc.nlp.problem import Problem
     from colloc.nlp.solution import Solution
 
 
-#: The methods of :func:`parameter_uncertainty`.
-METHODS = ("auto", "kkt", "sandwich", "autoregressive")
-
-
-@dataclass(frozen=True)
-class ParameterUncertainty:
-    """Standard errors and covariance of the unknown parameters.
-
-    Attributes
-    ----------
-    parameters : tuple of sympy.Symbol
-    standard_errors : dict
-        Symbol -> standard error.
-    covariance : ndarray
-        In the order of ``parameters``.
-    noise_variance : float
-        ``sigma^2`` per unit tracking weight: estimated from the residuals, or as given to
-        :func:`cramer_rao_bound`.
-    degrees_of_freedom : float or None
-        ``num_measurements - num_free``; with priors the tracked samples less
-        ``effective_parameters``; None for a bound (no residuals were used).
-    method : str
-        ``"kkt"`` (the noise model taken as right), ``"sandwich"`` (robust to a wrong one,
-        over time blocks), ``"autoregressive"`` (robust, the residuals' covariance from an
-        autoregression per trial) or ``"cramer-rao"`` (a bound at a chosen point).
-    blocks : int or None
-        Number of time blocks of the sandwich estimate.
-    reason : str
-        Why ``method`` is the one used (asked for, or the automatic choice's grounds).
-    at_bounds : tuple of sympy.Symbol
-        Parameters the solve left at one of their bounds (``solution.status.at_bounds``):
-        the bound holds them, not the data, so their standard error is NaN and their row
-        and column of ``covariance`` too; the others' are computed as if they were free
-        (the larger, unconditional spread).
-    discretisation_errors : dict
-        Symbol -> the scheme's estimated error in the value (Richardson from a grid twice
-        as fine, :func:`colloc.nlp.refinement.discretisation_error`), beside the standard
-        error, which does not count it; empty when not asked for, NaN when not estimated.
-    discretisation_note : str
-        How it was estimated, or why not.
-    effective_parameters : float or None
-        With priors (``process_noise``, ``measured_inputs``): the trace of the tracked
-        samples' influence matrix (:func:`influence_trace`), the quantities the data
-        determine; ``noise_variance`` is then the tracked residuals' ``sum w r^2`` over
-        ``degrees_of_freedom = n_y - effective_parameters``. None without priors.
-    orders : tuple of int
-        ``"autoregressive"``: each trial's autoregression order; empty otherwise.
-    """
-
-    parameters: tuple[sm.Symbol, ...]
-    standard_errors: dict[sm.Symbol, float]
-    covariance: np.ndarray
-    noise_variance: float
-    degrees_of_freedom: float | None
-    method: str = "kkt"
-    blocks: int | None = None
-    reason: str = ""
-    at_bounds: tuple[sm.Symbol, ...] = ()
-    discretisation_errors: dict[sm.Symbol, float] = dataclasses.field(default_factory=dict)
-    discretisation_note: str = ""
-    effective_parameters: float | None = None
-    orders: tuple[int, ...] = ()
+#: The covariance methods, by name.
+_BY_NAME: dict[str, UncertaintyMethod] = {
+    method.name: method for method in (KKT(), Sandwich(), Autoregressive())
+}
+#: The methods of :func:`parameter_uncertainty`: ``auto`` (:func:`choose_method`) and each
+#: method's own.
+METHODS = ("auto", *_BY_NAME)
 
 
 class DiscretisationWarning(UserWarning):
@@ -237,7 +192,7 @@ def _uncertainty(
     solution: Solution | TrialsSolution,
     num_measurements: int | None,
     method: str,
-    blocks: int | Sequence[int] | Sequence[Sequence[int]] | None,
+    blocks: Blocks,
     per_output: bool,
 ) -> ParameterUncertainty:
     """:func:`parameter_uncertainty` without the discretisation error."""
@@ -250,7 +205,7 @@ def _uncertainty(
         )
     if method not in METHODS:
         raise ValueError(f"method: expected one of {list(METHODS)}, found {method!r}")
-    if blocks is not None and method in ("kkt", "autoregressive"):
+    if blocks is not None and method != "auto" and not _BY_NAME[method].uses_blocks:
         raise ValueError(
             f"blocks: only the sandwich estimate uses time blocks, but method={method!r} was "
             "asked for; drop blocks= or use method='sandwich' (or 'auto')"
@@ -258,26 +213,14 @@ def _uncertainty(
     reason = "asked for"
     asked = method != "auto"
     priors = any(p.process_noise or p.measured_inputs for p in design.problems)
-    needed = method != "kkt" or priors or per_output
+    needed = not asked or _BY_NAME[method].needs_residuals or priors or per_output
     residuals, owners = trial_residuals(design, solution.z) if needed else (None, [])
-    if method == "auto":
+    if not asked:
         assert residuals is not None
         method, reason = choose_method(design, residuals, owners, per_output, blocks)
-    if method == "autoregressive" and asked:
-        # (auto has checked it before choosing it)
-        assert residuals is not None
-        obstacle = autoregressive_obstacle(design, residuals, owners)
-        if obstacle:
-            raise ValueError(
-                f"method: 'autoregressive' models each trial's tracked residuals as one series "
-                f"on a uniform grid, but {obstacle}; use method='sandwich'"
-            )
-        if per_output:
-            raise ValueError("per_output: only for method='kkt' (the autoregression needs none)")
+    chosen = _BY_NAME[method]
+    chosen.refuse(design, residuals, owners, blocks, per_output, asked)
     nlp = design.nlp
-    starts = trial_block_starts(blocks, design) if method == "sandwich" else None
-    if starts is not None:
-        check_blocks_per_parameter(design, starts)
     if num_measurements is None:
         num_measurements = count_measurements(design)
     n, m = nlp.n, nlp.m
@@ -293,9 +236,7 @@ def _uncertainty(
     effective = None
     # each least-squares signal's residual gradients, for the priors' and per-output shares
     slopes = (
-        signal_slopes(design, solution.z)
-        if priors or per_output or method == "autoregressive"
-        else []
+        signal_slopes(design, solution.z) if priors or per_output or chosen.needs_slopes else []
     )
     if priors:
         # the disturbances' (and measured inputs') priors shrink them: they use up fewer
@@ -303,132 +244,25 @@ def _uncertainty(
         # residuals over their effective degrees of freedom
         assert residuals is not None
         sigma2, effective, dof = effective_variance(design, solution.z, hessian, residuals, slopes)
-    if method == "autoregressive":
-        assert residuals is not None
-        try:
-            cov, orders = autoregressive_covariance(
-                design, solution.z, hessian, kkt, residuals, owners, slopes
-            )
-        except ValueError as exc:
-            if asked:
-                raise ValueError(
-                    f"method: 'autoregressive' cannot model these residuals ({exc}); use "
-                    "method='sandwich'"
-                ) from exc
-            reason = f"{reason}; but {exc}, so the sandwich over time blocks instead"
-            starts = trial_block_starts(blocks, design)
-            check_blocks_per_parameter(design, starts)
-        else:
-            cov += _prior_share(design, kkt, residuals, slopes, sigma2)
-            result = _result(design, cov, sigma2, dof, "autoregressive", None, reason, effective)
-            return _mark_bounds(solution, dataclasses.replace(result, orders=orders))
-    if starts is None and per_output:
-        assert residuals is not None
-        cov = _per_output_covariance(design, kkt, dof / num_measurements, residuals, slopes)
-        return _mark_bounds(
-            solution,
-            _result(design, cov, sigma2, dof, "kkt per output", None, reason, effective),
+    point = FitPoint(
+        design, solution, kkt, hessian, sigma2, dof, num_measurements, effective, residuals,
+        owners, slopes, blocks, per_output, reason, asked,
+    )  # fmt: skip
+    try:
+        result = chosen.covariance(point)
+    except CannotModel as exc:
+        if asked:
+            raise ValueError(
+                f"method: '{chosen.name}' cannot model these residuals ({exc}); use "
+                "method='sandwich'"
+            ) from exc
+        fallback = _BY_NAME["sandwich"]
+        fallback.refuse(design, residuals, owners, blocks, per_output, asked)
+        point = dataclasses.replace(
+            point, reason=f"{reason}; but {exc}, so the sandwich over time blocks instead"
         )
-    if starts is None:
-        cov = 2.0 * sigma2 * kkt.parameter_block()
-        return _mark_bounds(
-            solution, _result(design, cov, sigma2, dof, "kkt", None, reason, effective)
-        )
-    if per_output:
-        raise ValueError("per_output: only for method='kkt' (the sandwich needs no variances)")
-    G = block_gradients(design, solution.z, starts)
-    assert residuals is not None  # computed above for the sandwich
-    first = np.concatenate([[0], np.cumsum([s.size for s in starts])])
-    nb = int(first[-1])
-    # (no slopes without priors: then nothing below is a prior's)
-    for prior, owner, (rows, slope) in zip(residuals, owners, slopes, strict=False):
-        if prior.kind == "tracking":
-            continue
-        # a disturbance (or a group's whitened combination) or a measured input's
-        # correction: its residuals are shrunk by the fit, so its share is taken from the
-        # noise model (_prior_share) rather than from the residuals, and its gradient
-        # (s_k r_k) is taken out of the blocks'
-        used = prior.weights > 0
-        r = np.where(used, prior.residuals, 0.0)
-        nodes = np.arange(r.size)
-        block = first[owner] + np.searchsorted(starts[owner], nodes, side="right") - 1
-        in_block = sp.coo_matrix((np.ones(r.size), (nodes, block)), shape=(r.size, nb))
-        G = G - (per_sample(rows, slope * r[:, None], n) @ in_block).tocsc()
-    U = kkt.parameter_rows(G)
-    cov = _prior_share(design, kkt, residuals, slopes, sigma2) + nb / (nb - 1) * (U @ U.T)
-    return _mark_bounds(
-        solution,
-        _result(design, 0.5 * (cov + cov.T), sigma2, dof, "sandwich", nb, reason, effective),
-    )
-
-
-def _prior_share(
-    design: Trials,
-    kkt: ReducedKKT,
-    residuals: Sequence[SignalResiduals],
-    slopes: Sequence[tuple[np.ndarray, np.ndarray]],
-    sigma2: float,
-) -> np.ndarray:
-    """The priors' share of the robust covariances, from the noise model:
-    ``sum_k sigma^2 / w_k Y_k Y_k^T``, ``Y_k = [K^-1]_p,: 2 w_k grad r_k``, over every sample
-    of a disturbance or measured input (their residuals are shrunk by the fit, so they say
-    little of the noise). Zero without priors."""
-    q = len(design.unknown_parameters)
-    cov = np.zeros((q, q))
-    for prior, (rows, slope) in zip(residuals, slopes, strict=False):
-        if prior.kind == "tracking":
-            continue
-        used = prior.weights > 0
-        root = np.where(used, np.sqrt(sigma2 / np.where(used, prior.weights, 1.0)), 0.0)
-        Y = kkt.parameter_rows(per_sample(rows, slope * root[:, None], design.nlp.n))
-        cov += Y @ Y.T
-    return cov
-
-
-#: Variance per unit weight of a tracked signal that is taken as absolute weighting
-#: (``1 / sigma^2`` up to its noise level being off by a factor of ten) when priors are
-#: present; outside it, per_output refuses (relative weights made SEs 120-170x too large).
-PRIOR_UNIT_RANGE = (1e-2, 1e2)
-
-
-def _per_output_covariance(
-    design: Trials,
-    kkt: ReducedKKT,
-    dof_share: float,
-    signals: Sequence[SignalResiduals],
-    slopes: list[tuple[np.ndarray, np.ndarray]],
-) -> np.ndarray:
-    """``[K^-1]_p,: (sum_i 4 w_i^2 v_i g_i g_i^T) [K^-1]_:,p`` with each tracked signal's
-    variance per unit weight from its own residuals (priors: their given variance)."""
-    q = len(design.unknown_parameters)
-    cov = np.zeros((q, q))
-    has_priors = any(signal.kind != "tracking" for signal in signals)
-    mismatched: list[str] = []
-    for (rows, slope), signal in zip(slopes, signals, strict=True):
-        w = signal.weights
-        used = w > 0
-        r = np.where(used, signal.residuals, 0.0)
-        variance = 1.0  # a prior's weight is 1 / sigma^2
-        if signal.kind == "tracking":
-            variance = float(np.sum(w * r**2) / (dof_share * np.count_nonzero(used)))
-            if has_priors and not PRIOR_UNIT_RANGE[0] <= variance <= PRIOR_UNIT_RANGE[1]:
-                mismatched.append(f"{signal.name} ({variance:.3g})")
-        # sample k's residual has variance v_k = variance / w_k
-        root = np.where(used, np.sqrt(variance / np.where(used, w, 1.0)), 0.0)
-        U = kkt.parameter_rows(per_sample(rows, slope * root[:, None], design.nlp.n))
-        cov += U @ U.T
-    if mismatched:
-        # the fit itself weighed the priors against data in other units: no covariance of
-        # it is honest, so none is given
-        raise ValueError(
-            "per_output: the priors of process_noise / measured_inputs are weighted 1 / sigma^2 "
-            "(absolute), but the tracked signals' variance per unit weight is "
-            f"{', '.join(mismatched)}, not about 1: their weights are relative, so the fit "
-            "balanced priors and data in different units. Give the tracking weights as "
-            "1 / sigma^2 of each signal's noise (then per_output refines them), or drop the "
-            "priors"
-        )
-    return 0.5 * (cov + cov.T)
+        result = fallback.covariance(point)
+    return _mark_bounds(solution, result)
 
 
 def count_measurements(problem: Problem | Trials) -> int:
@@ -501,7 +335,7 @@ def cramer_rao_bound(
     if not (np.isfinite(noise_variance) and noise_variance > 0):
         raise ValueError(f"noise_variance: expected a number > 0, found {noise_variance!r}")
     block = ReducedKKT(design, z, nlp.gauss_newton_hessian(z)).parameter_block()
-    return _result(
+    return make_result(
         design, 2.0 * float(noise_variance) * block, float(noise_variance), None, "cramer-rao"
     )
 
@@ -561,29 +395,4 @@ def _mark_bounds(
         covariance=cov,
         reason=f"{result.reason}; {note}" if result.reason else note,
         at_bounds=symbols,
-    )
-
-
-def _result(
-    design: Trials,
-    cov: np.ndarray,
-    sigma2: float,
-    dof: float | None,
-    method: str,
-    blocks: int | None = None,
-    reason: str = "",
-    effective: float | None = None,
-) -> ParameterUncertainty:
-    se = np.sqrt(np.clip(np.diag(cov), 0.0, None))
-    params = design.unknown_parameters
-    return ParameterUncertainty(
-        params,
-        dict(zip(params, map(float, se), strict=True)),
-        cov,
-        sigma2,
-        dof,
-        method,
-        blocks,
-        reason,
-        effective_parameters=effective,
     )

@@ -4,17 +4,12 @@
 from __future__ import annotations
 
 from collections.abc import Sequence
-from typing import TYPE_CHECKING
 
 import numpy as np
 
 from colloc.nlp.autocorrelated import autoregressive_obstacle
 from colloc.nlp.residuals import SignalResiduals
 from colloc.nlp.trials import Trials
-
-if TYPE_CHECKING:
-    pass
-
 
 #: Fewest nodes for ``method="auto"`` to take the sandwich (five blocks of five nodes).
 AUTO_SANDWICH_MIN_NODES = 25
