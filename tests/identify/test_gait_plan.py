@@ -15,8 +15,9 @@ from colloc.control.gain_scheduled import GainScheduled
 from colloc.data.columns import TORQUE_COLUMNS
 from colloc.data.trial import read_trial
 from colloc.identify.gait.controller_fit import fit_schedule_with_errors, relative_spread
+from colloc.identify.gait.phase_law import gait_phase
 from colloc.identify.gait.plan import design_bounds, plan_record
-from colloc.identify.gait.read import gait_phase, measured_states, state_names
+from colloc.identify.gait.read import measured_states, state_names
 
 FIXTURE = Path(__file__).parent / "data" / "gait_trial_p20"
 

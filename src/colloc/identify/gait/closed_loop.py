@@ -25,16 +25,20 @@ from colloc.identify.gait.stage import Fit, FitContext
 def closed_loop_fit(c: FitContext) -> Fit:
     """The closed-loop collocation problem (all states free, the schedule's parameters in the
     dynamics) solved by constrained Gauss-Newton from the direct start."""
-    settings, data, gs, t, say, lap = c.settings, c.data, c.gs, c.t, c.say, c.lap
+    settings, data, gs, say, lap = c.settings, c.data, c.gs, c.say, c.lap
+    window = data.window
+    t = window.time
     model = c.dyn.model
     say("build", f"{t.size} nodes, {len(gs.parameters)} controller parameters")
-    problem, weights_n = _problem(settings, c.dyn, gs, t, c.signals, c.phase, data.trial.metadata)
+    problem, weights_n = _problem(
+        settings, c.dyn, gs, t, window.signals, window.phase, data.trial.metadata
+    )
     guess = (
         gs.parameter_values(c.direct.Tstar, c.direct.K)
         if settings.guess == "direct"
         else {p: 0.0 for p in gs.parameters}
     )
-    z0 = problem.initial_guess(dict(zip(model.states, c.states.T, strict=True)), guess)
+    z0 = problem.initial_guess(dict(zip(model.states, window.states.T, strict=True)), guess)
     lap("build")
 
     from colloc.solve.gauss_newton import GaussNewtonOptions

@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Any
 
 import numpy as np
 
@@ -11,7 +10,6 @@ from colloc.control.gain_scheduled import GainScheduled
 from colloc.data.columns import JOINT_ANGLE_COLUMNS, JOINT_RATE_COLUMNS, TORQUE_COLUMNS
 from colloc.identify.gait.read import (
     GaitData,
-    recorded_controller,
 )
 
 #: The controller structures' names in :class:`GainScheduled`.
@@ -32,10 +30,10 @@ class ControllerEstimate:
 
 
 def true_controller(
-    meta: dict[str, Any], data: GaitData, gs: GainScheduled, notes: list[str]
+    data: GaitData, gs: GainScheduled, notes: list[str]
 ) -> ControllerEstimate | None:
-    """The trial's true controller when it lies in the identified class."""
-    recorded = recorded_controller(meta)
+    """The trial's true controller (``data.recorded``) when it lies in the identified class."""
+    recorded = data.recorded
     if recorded is None or not {"Tstar", "K", "mask"} <= set(recorded):
         return None
     Tstar = np.asarray(recorded["Tstar"], dtype=float)

@@ -26,9 +26,9 @@ from colloc.data.columns import TORQUE_COLUMNS
 from colloc.gait.settings import GaitSimulationSettings
 from colloc.identify.direct import schedule_design
 from colloc.identify.gait.controller_fit import relative_spread
+from colloc.identify.gait.phase_law import gait_phase
 from colloc.identify.gait.read import (
     GaitData,
-    gait_phase,
     read_gait_data,
     recorded_controller,
     state_names,

@@ -5,21 +5,63 @@ controller (a synthetic trial's truth)."""
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Any, TypeGuard
+from typing import Any
 
 import numpy as np
 
 from colloc.data.columns import JOINT_ANGLE_COLUMNS, JOINT_RATE_COLUMNS, TORQUE_COLUMNS
-from colloc.data.phase import causal_gait_phase, unwrapped_gait_phase
 from colloc.data.split import split
 from colloc.data.trial import Trial, read_trial, read_trial_metadata
 from colloc.identify.direct import smooth_with_derivatives
+from colloc.identify.gait.phase_law import PhaseLaw, phase_law
 from colloc.identify.gait.settings import DEFAULT_POINTS, GaitIdentifySettings
+
+
+@dataclass(frozen=True)
+class TrialPart:
+    """A stretch of the trial as the fits read it, phased and with its states measured once.
+
+    Attributes
+    ----------
+    time : ndarray, shape (N,)
+    signals : DataFrame
+        The trial's rows, indexed from 0.
+    phase : ndarray, shape (N,)
+        The phase law's unwrapped phase (NaN where it has none).
+    states : ndarray, shape (N, 18)
+        ``[q, u]`` measured (:func:`measured_states`).
+    """
+
+    time: np.ndarray
+    signals: Any
+    phase: np.ndarray
+    states: np.ndarray
 
 
 @dataclass
 class GaitData:
-    """The checked trial, its two parts and the fit window."""
+    """The checked trial read once: its two parts, the fit window and the held-out part
+    phased and measured, the phase law, and the controller the trial records.
+
+    Attributes
+    ----------
+    trial, fit, held_out : Trial
+        The whole trial and its two parts.
+    rows : ndarray of int
+        The fit part's rows of the window.
+    feedback : list of str
+        The controller's feedback signals.
+    points : int
+        The schedule's points ``P``.
+    mask_metadata : ndarray or None
+        The recorded controller's gain mask.
+    phase : PhaseLaw
+        The law ``--phase`` names, of the whole trial.
+    recorded : dict or None
+        The trial's recorded controller (a synthetic trial's truth).
+    window, held_out_part : TrialPart
+        The fit window and the held-out part.
+    """
 
     trial: Trial
     fit: Trial
@@ -28,6 +70,10 @@ class GaitData:
     feedback: list[str]
     points: int
     mask_metadata: np.ndarray | None
+    phase: PhaseLaw
+    recorded: dict[str, Any] | None
+    window: TrialPart
+    held_out_part: TrialPart
 
 
 def state_names() -> tuple[str, ...]:
@@ -173,7 +219,25 @@ def read_gait_data(settings: GaitIdentifySettings) -> GaitData:
             )
     if problems:
         raise ValueError("colloc gait identify: " + "; ".join(problems))
-    return GaitData(trial, fit, held_out, rows, feedback, points, mask_metadata)
+    law = phase_law(settings.phase, trial)
+
+    def part(time: np.ndarray, signals: Any) -> TrialPart:
+        states = measured_states(time, signals, settings.smoothing_window)
+        return TrialPart(time, signals, law.at(time, signals), states)
+
+    return GaitData(
+        trial,
+        fit,
+        held_out,
+        rows,
+        feedback,
+        points,
+        mask_metadata,
+        law,
+        recorded,
+        part(fit.time[rows], fit.signals.iloc[rows].reset_index(drop=True)),
+        part(held_out.time, held_out.signals),
+    )
 
 
 #: Right heel strikes a trial needs: three whole strides, two to fit and one held out.
@@ -266,62 +330,6 @@ def _metadata_problems(recorded: dict[str, Any]) -> list[str]:
         if num_points is not None and num_points != P:
             out.append(f"metadata: controller num_points {num_points} but Tstar has {P} rows")
     return out
-
-
-def gait_phase(convention: str, trial: Any, t: np.ndarray, signals: Any) -> np.ndarray:
-    """Unwrapped phase in cycles at times ``t``: causal from the right heel strikes (the
-    default), linear between them, or the trial's ``controller_phase`` column (``signals``,
-    rows at ``t``)."""
-    if convention == "controller":
-        return signals["controller_phase"].to_numpy(dtype=float)
-    strikes = trial.right_heel_strikes
-    if convention == "heel-strikes":
-        return unwrapped_gait_phase(t, strikes)
-    stride, phi0, _ = causal_phase_parameters(trial.metadata, strikes)
-    return causal_gait_phase(t, strikes, stride, phi0)
-
-
-def causal_phase_parameters(
-    metadata: dict[str, Any], strikes: np.ndarray
-) -> tuple[float, float, str]:
-    """``D``, ``phi_0`` and where they came from, for :func:`colloc.data.causal_gait_phase`.
-
-    A synthetic trial records its controller's (``controller.stride_duration``,
-    ``controller.phase_at_strike``); otherwise ``D`` is the designed cycle's duration
-    (``cycle.duration``) or the median stride, and ``phi_0`` is 0 (the schedule starts at the
-    heel strike).
-
-    Parameters
-    ----------
-    metadata : dict
-        The trial's metadata.
-    strikes : ndarray
-        Right heel-strike times.
-
-    Returns
-    -------
-    stride_duration : float
-    phase_at_strike : float
-    source : str
-    """
-    controller = metadata.get("controller") if isinstance(metadata, dict) else None
-    controller = controller if isinstance(controller, dict) else {}
-    cycle = metadata.get("cycle") if isinstance(metadata, dict) else None
-    cycle = cycle if isinstance(cycle, dict) else {}
-    recorded, designed = controller.get("stride_duration"), cycle.get("duration")
-    if _positive(recorded):
-        stride, source = float(recorded), "the trial's controller"
-    elif _positive(designed):
-        stride, source = float(designed), "the trial's designed cycle"
-    else:
-        stride, source = float(np.median(np.diff(strikes))), "the median stride"
-    given = controller.get("phase_at_strike")
-    phi0 = float(given) if isinstance(given, int | float) and 0 <= given < 1 else 0.0
-    return stride, phi0, source
-
-
-def _positive(value: object) -> TypeGuard[float]:
-    return isinstance(value, int | float) and not isinstance(value, bool) and 0 < value < np.inf
 
 
 def measured_states(t: np.ndarray, signals: Any, window: float) -> np.ndarray:

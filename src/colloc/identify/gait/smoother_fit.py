@@ -13,7 +13,6 @@ from colloc.identify.gait.estimate import (
     ControllerEstimate,
 )
 from colloc.identify.gait.read import (
-    gait_phase,
     state_names,
 )
 from colloc.identify.gait.stage import Fit, FitContext
@@ -47,7 +46,7 @@ def smoother_fit(c: FitContext) -> Fit:
 
     settings, data, gs = c.settings, c.data, c.gs
     meta = data.trial.metadata
-    windows = fit_windows(settings, c.t, data.trial.right_heel_strikes)
+    windows = fit_windows(settings, data.window.time, data.trial.right_heel_strikes)
     source = smoothing_source(settings.smooth_from, data.trial)
     jobs = window_jobs(
         data.fit, data.rows, windows, meta, "stride window", source, settings.noise_levels
@@ -77,10 +76,7 @@ def smoother_fit(c: FitContext) -> Fit:
         np.concatenate(column) for column in zip(*pieces, strict=True)
     )
     segments = np.concatenate([np.full(p[0].size, k) for k, p in enumerate(pieces)])
-    if settings.phase == "controller":
-        mid_phase = np.interp(mid_t, c.t, c.phase)
-    else:
-        mid_phase = gait_phase(settings.phase, data.trial, mid_t, None)
+    mid_phase = data.phase.between(mid_t, data.window.time, data.window.phase)
     ok = np.isfinite(mid_phase)
     index = {n: i for i, n in enumerate(state_names())}
     columns = [index[n] for n in data.feedback]

@@ -34,10 +34,6 @@ class FitContext:
     data: GaitData
     dyn: Any
     gs: GainScheduled
-    t: np.ndarray
-    signals: Any
-    phase: np.ndarray
-    states: np.ndarray
     direct: ControllerEstimate
     say: Progress
     iterations: Iterations | None

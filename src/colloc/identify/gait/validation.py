@@ -16,9 +16,6 @@ from colloc.identify.gait.estimate import (
 )
 from colloc.identify.gait.read import (
     GaitData,
-    causal_phase_parameters,
-    gait_phase,
-    measured_states,
     state_names,
     subject,
 )
@@ -56,13 +53,11 @@ def validate(
 ) -> dict[str, Any]:
     """Torque VAF of each controller, and the forward simulations of the held-out part
     under the identified and the direct controllers (through ``map_windows`` when given)."""
-    part = data.held_out
-    t, signals = part.time, part.signals
-    phase_all = gait_phase(settings.phase, data.trial, t, signals)
+    part = data.held_out_part
+    signals, phase_all, states = part.signals, part.phase, part.states
     # outside the strikes the phase may be unknown (after the last, linear between strikes;
     # before the first, causal): the torque check keeps the samples that have one
     rows = np.flatnonzero(np.isfinite(phase_all))
-    states = measured_states(t, signals, settings.smoothing_window)
     index = {n: i for i, n in enumerate(state_names())}
     feedback = [index[n] for n in data.feedback]
     measured = signals[list(TORQUE_COLUMNS)].to_numpy(dtype=float)
@@ -178,27 +173,9 @@ def _walk_job(
     phase: np.ndarray,
 ) -> WalkJob:
     """The forward simulation of the held-out part under ``est`` from its measured start,
-    with the phase law of ``settings.phase``."""
+    with the trial's phase law (:meth:`colloc.identify.gait.phase_law.PhaseLaw.walk_clock`)."""
     part, fit = data.held_out, data.fit
-    if settings.phase == "controller":
-        column = fit.signals["controller_phase"].to_numpy(dtype=float)
-        steps = np.diff(column)
-        rate = float(np.median(steps[steps > 0]) / np.median(np.diff(fit.time)))
-        stride = 1.0 / rate
-        after = np.searchsorted(fit.time, fit.right_heel_strikes[1:])
-        after = after[after < fit.time.size]
-        phi0 = np.mod(
-            column[after] - (fit.time[after] - fit.right_heel_strikes[1 : 1 + after.size]) * rate,
-            1.0,
-        )
-        strike_phase = float(np.median(phi0))
-    elif settings.phase == "causal":
-        stride, strike_phase, _ = causal_phase_parameters(
-            data.trial.metadata, data.trial.right_heel_strikes
-        )
-    else:
-        stride = float(np.median(np.diff(fit.right_heel_strikes)))
-        strike_phase = 0.0
+    stride, strike_phase = data.phase.walk_clock(fit)
     hip = fit.signals["trunk_y"].to_numpy(dtype=float)
     index = {n: i for i, n in enumerate(state_names())}
     body_mass, height = subject(data.trial.metadata)

@@ -57,9 +57,6 @@ from colloc.identify.gait.estimate import (
     true_controller,
 )
 from colloc.identify.gait.read import (
-    causal_phase_parameters,
-    gait_phase,
-    measured_states,
     read_gait_data,
     state_names,
     subject,
@@ -233,17 +230,11 @@ def identify_gait(
     state_index = {name: i for i, name in enumerate(state_names())}
     feedback_states = [model.states[state_index[n]] for n in data.feedback]
     gs = GainScheduled(data.points, feedback_states, torques, structure=settings.structure)
-    fit = data.fit
-    t = fit.time[data.rows]
-    signals = fit.signals.iloc[data.rows].reset_index(drop=True)
-    phase = gait_phase(settings.phase, data.trial, t, signals)
-    if settings.phase == "causal":
-        stride, phi0, source = causal_phase_parameters(meta, data.trial.right_heel_strikes)
-        notes.append(
-            f"phase: causal, reset to {phi0:.4g} at each right heel strike, one cycle per "
-            f"{stride:.4g} s ({source})"
-        )
-    states = measured_states(t, signals, settings.smoothing_window)
+    window = data.window
+    t, signals, phase, states = window.time, window.signals, window.phase, window.states
+    law_note = data.phase.note()
+    if law_note:
+        notes.append(law_note)
     fb_columns = [state_index[n] for n in data.feedback]
     measured_torques = signals[list(TORQUE_COLUMNS)].to_numpy()
 
@@ -255,25 +246,21 @@ def identify_gait(
     lap("direct")
 
     context = FitContext(
-        settings,
-        data,
-        dyn,
-        gs,
-        t,
-        signals,
-        phase,
-        states,
-        direct,
-        say,
-        iterations,
-        notes,
-        lap,
-        map_windows,
+        settings=settings,
+        data=data,
+        dyn=dyn,
+        gs=gs,
+        direct=direct,
+        say=say,
+        iterations=iterations,
+        notes=notes,
+        lap=lap,
+        map_windows=map_windows,
     )
     outcome = _FITS[settings.method](context)
     collocation = outcome.estimate
 
-    truth = true_controller(meta, data, gs, notes)
+    truth = true_controller(data, gs, notes)
     say("validate", f"held-out {data.held_out.time[-1] - data.held_out.time[0]:.1f} s")
     # the trial's own controller, when it records one, beside them: the VAF a consistent
     # estimate approaches (the direct fit's attenuated gains can predict noisy states better)
