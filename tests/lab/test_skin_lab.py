@@ -218,6 +218,10 @@ def test_the_skin_trial_keeps_the_clusters_and_pelvis_markers_for_the_smoother(
     )
     assert np.sqrt(np.mean(errors**2)) == pytest.approx(1e-3, rel=0.15)
     assert trial.metadata["markers"]["noise_std_m"] == pytest.approx(1e-3, rel=0.3)
+    # the MOT's moment is its centre of pressure times the force, exactly zero off the plate:
+    # its noise is read where it is recorded (1 N m drawn; off the plate it read 0.43)
+    assert trial.metadata["plates"]["moment_noise_std_nm"] == pytest.approx(1.0, rel=0.15)
+    assert trial.metadata["plates"]["force_noise_std_n"] == pytest.approx(2.0, rel=0.15)
     # the ankle's height from the carried malleoli on the loaded feet: the model's 0.0703 m
     assert trial.metadata["markers"]["ankle_height_m"] == pytest.approx(0.0703, abs=2e-3)
 

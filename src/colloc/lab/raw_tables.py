@@ -22,7 +22,7 @@ from colloc.data.filtering import zero_lag_lowpass
 from colloc.data.tables import PLATE_COLUMNS
 from colloc.lab.exports import LabExport
 from colloc.lab.markers import LANDMARKS, MarkerSet, landmark_segment
-from colloc.lab.noise import off_plate_noise, robust_sd
+from colloc.lab.noise import moment_noise, off_plate_noise, robust_sd
 from colloc.lab.plausibility import MAX_MARKER_SPEED, spikes
 
 
@@ -140,21 +140,21 @@ def plate_table(plates: LabExport, ms: MarkerSet, start: float, stop: float) -> 
 
 
 def plate_noise(table: pd.DataFrame) -> dict[str, float]:
-    """The plates' noise: force and moment, from the second differences of the samples
-    while the foot is off its plate (white noise: variance ``6 sigma^2``), robustly
-    (1.4826 times the median absolute deviation). Zero when nothing varies."""
-    out = {}
-    for quantity, names in (("force", ("force_x", "force_y")), ("moment", ("moment",))):
-        out[quantity] = off_plate_noise(
-            [
-                (
-                    table[[f"{side}_{n}" for n in names]].to_numpy(dtype=float),
-                    table[f"{side}_force_y"].to_numpy(dtype=float),
-                )
-                for side in SIDES
-            ]
-        )
-    return out
+    """The plates' noise, from the second differences of the samples (white noise: variance
+    ``6 sigma^2``), robustly (1.4826 times the median absolute deviation): the forces' while
+    the foot is off its plate (:func:`colloc.lab.noise.off_plate_noise`), the moment's where
+    it is recorded (:func:`colloc.lab.noise.moment_noise`). Zero when nothing varies."""
+    load = {side: table[f"{side}_force_y"].to_numpy(dtype=float) for side in SIDES}
+    force = off_plate_noise(
+        [
+            (table[[f"{side}_force_x", f"{side}_force_y"]].to_numpy(dtype=float), load[side])
+            for side in SIDES
+        ]
+    )
+    moment = moment_noise(
+        [(table[f"{side}_moment"].to_numpy(dtype=float), load[side]) for side in SIDES]
+    )
+    return {"force": force, "moment": moment}
 
 
 def raw_records(
@@ -203,7 +203,8 @@ def raw_records(
             "force_noise_std_n": noise["force"],
             "moment_noise_std_nm": noise["moment"],
             "estimated": "1.4826 x the median absolute deviation of the second differences "
-            "/ sqrt 6 while the foot is off its plate",
+            "/ sqrt 6: the forces' while the foot is off its plate, the moment's where it is "
+            "recorded (not exactly zero), off the plate if it is there, else under load",
             "unfiltered": True,
         },
     }

@@ -1,0 +1,38 @@
+"""The plates' noise read from their samples, against the noise drawn into them."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from colloc.lab.noise import moment_noise, off_plate_noise
+
+
+def _stance(n: int, rate: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """A foot loaded half of each 1.2 s stride: its vertical load and its moment (the centre
+    of pressure walking 0.25 m forward under the load)."""
+    t = np.arange(n) / rate
+    phase = np.mod(t / 1.2, 1.0)
+    loaded = phase < 0.6
+    load = np.where(loaded, 700.0 * np.sqrt(np.clip(np.sin(np.pi * phase / 0.6), 0.0, None)), 0.0)
+    moment = load * (0.1 + 0.25 * phase / 0.6)
+    return t, load, moment
+
+
+@pytest.mark.parametrize("rate", [100.0, 1000.0])
+def test_a_moment_from_a_centre_of_pressure_reads_its_noise_under_load(rate):
+    rng = np.random.default_rng(3)
+    _, load, moment = _stance(6000, rate)
+    noisy = moment + rng.normal(0.0, 1.0, moment.size)
+    # as a MOT gives it: no centre of pressure off the plate, so the moment is exactly zero
+    from_centre = np.where(load > 0, noisy, 0.0)
+    assert moment_noise([(from_centre, load)]) == pytest.approx(1.0, rel=0.1)
+    # the off-plate reading this replaces sees almost nothing there
+    assert off_plate_noise([(from_centre, load)]) < 0.5
+    # a moment channel recorded throughout (a tab export's MomZ) is read off the plate
+    assert moment_noise([(noisy, load)]) == pytest.approx(1.0, rel=0.1)
+
+
+def test_a_moment_never_recorded_has_no_noise():
+    _, load, _ = _stance(600, 100.0)
+    assert moment_noise([(np.zeros(600), load)]) == 0.0
