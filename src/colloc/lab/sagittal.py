@@ -195,7 +195,11 @@ def sagittal_exports(
                     f"the floor lies {floor * 1000:+.1f} mm from the origin along up (the plates' "
                     "points of application): marker heights are taken above it"
                 )
-        plate_export = LabExport(time=time, markers={}, plates=channels, source=plates.source)
+        plate_export = LabExport(
+            time=time, markers={}, plates=channels, source=plates.source,
+            # a file of its own keeps its columns on its times; a C3D's are the markers'
+            columns=dict(plates.columns) if plates is not markers else {},
+        )  # fmt: skip
     marker_export = None
     if markers is not None and markers.markers:
         planar = {

@@ -95,7 +95,7 @@ def write_lab_files(
             )
             for side in SIDES
         }
-        written["mot"] = write_mot(mot, plates)
+        written["mot"] = write_mot(mot, plates, _on(export.columns, export.time, export.time))
         written["grf_xml"] = write_grf_mapping(
             xml, {prefix: side for side, prefix in OPENSIM_PLATES.items()}, mot.name
         )
@@ -113,7 +113,10 @@ def write_lab_files(
             for side in order
         }
         rate = float(1.0 / np.median(np.diff(export.time)))
-        written["c3d"] = write_c3d(folder / FORMATS["c3d"][0], export.time, markers, plates, rate)
+        written["c3d"] = write_c3d(
+            folder / FORMATS["c3d"][0], export.time, markers, plates, rate,
+            columns=dict(export.columns),
+        )  # fmt: skip
     return written
 
 
@@ -219,8 +222,11 @@ def write_skin_lab(
         trc, mot, xml, static_trc = (folder / name for name in SKIN_FILES["trc"])
         written["trc"] = write_trc(trc, walk.time, walk.markers, units="mm")
         sides = {side: marker_set.plates[side] for side in SIDES}
+        plate_time = next(iter(walk.plates.values())).time
         written["mot"] = write_mot(
-            mot, {OPENSIM_PLATES[side]: walk.plates[name] for side, name in sides.items()}
+            mot,
+            {OPENSIM_PLATES[side]: walk.plates[name] for side, name in sides.items()},
+            _on(walk.columns, walk.time, plate_time),
         )
         written["grf_xml"] = write_grf_mapping(
             xml, {prefix: side for side, prefix in OPENSIM_PLATES.items()}, mot.name
@@ -233,9 +239,17 @@ def write_skin_lab(
             marker_set.plates[side]: _z_up_plate(walk.plates[marker_set.plates[side]])
             for side in order
         }
-        written["c3d"] = write_c3d(walk_c3d, walk.time, _z_up(walk.markers), plates, plate_rate)
+        written["c3d"] = write_c3d(
+            walk_c3d, walk.time, _z_up(walk.markers), plates, plate_rate,
+            columns=dict(walk.columns),
+        )  # fmt: skip
         written["static_c3d"] = write_c3d(static_c3d, static.time, _z_up(static.markers), {}, rate)
     return written
+
+
+def _on(columns: dict[str, np.ndarray], time: np.ndarray, at: np.ndarray) -> dict[str, np.ndarray]:
+    """Signals sampled at ``time`` (the belt speed), linearly at the times ``at``."""
+    return {name: np.interp(at, time, values) for name, values in columns.items()}
 
 
 def _z_up(markers: dict[str, np.ndarray]) -> dict[str, np.ndarray]:

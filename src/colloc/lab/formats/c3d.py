@@ -88,6 +88,7 @@ def read_c3d(path: str | os.PathLike[str]) -> LabRecord:
     analogs = np.asarray(c3d["data"]["analogs"], float)
     analog_labels = [str(v).strip() for v in c3d["parameters"]["ANALOG"]["LABELS"]["value"]]
     analog_time = np.arange(analogs.shape[2]) / analog_rate if analog_rate else np.empty(0)
+    columns = _other_channels(c3d["parameters"], analogs, analog_labels, frames)
     plates = {}
     for k, platform in enumerate(c3d["data"]["platform"]):
         plates[f"FP{k + 1}"] = _plate(platform, analog_time)
@@ -103,12 +104,30 @@ def read_c3d(path: str | os.PathLike[str]) -> LabRecord:
         up=up,
         source=str(path),
         notes=notes,
-        columns={},
+        columns=columns,
         analogs={label: analogs[0, k] for k, label in enumerate(analog_labels)},
         analog_time=analog_time,
         events=_events(c3d["parameters"]),
         subject=_subject(c3d["parameters"]),
     )
+
+
+def _other_channels(
+    parameters: dict[str, Any], analogs: np.ndarray, labels: list[str], frames: int
+) -> dict[str, np.ndarray]:
+    """The analog channels no force platform reads (a treadmill's belt speed, say), at the
+    frames: each frame's first analog sample."""
+    used = parameters.get("FORCE_PLATFORM", {}).get("CHANNEL", {}).get("value", [])
+    taken = {int(c) - 1 for c in np.ravel(np.asarray(used, dtype=float))}
+    samples = analogs.shape[2]
+    if not frames or not samples or samples % frames:
+        return {}
+    step = samples // frames
+    return {
+        label: analogs[0, k, ::step][:frames].copy()
+        for k, label in enumerate(labels)
+        if k not in taken and label
+    }
 
 
 def _events(parameters: dict[str, Any]) -> list[dict[str, object]]:
@@ -177,6 +196,7 @@ def write_c3d(
     plates: dict[str, PlateSeries],
     analog_rate: float,
     events: list[dict[str, object]] | None = None,
+    columns: dict[str, np.ndarray] | None = None,
 ) -> Path:
     """Write markers and type-2 force platforms as a C3D file (X forward, Z up, mm).
 
@@ -196,6 +216,9 @@ def write_c3d(
         [Hz].
     events : list of dict, optional
         ``label``, ``context`` and ``time`` [s] of each event (e.g. heel strikes).
+    columns : dict, optional
+        More signals at the markers' times (e.g. the belt speed), each written as an analog
+        channel of its name after the platforms', its value held over each frame.
 
     Returns
     -------
@@ -215,11 +238,14 @@ def write_c3d(
         points[:3, k, :] = xyz.T * 1000.0
     c3d["data"]["points"] = points
     c3d["parameters"]["ANALOG"]["RATE"]["value"] = [analog_rate]
+    extra = columns or {}
     labels = tuple(
         f"{c}{k + 1}" for k in range(len(plates)) for c in ("Fx", "Fy", "Fz", "Mx", "My", "Mz")
-    )
+    ) + tuple(extra)
     c3d["parameters"]["ANALOG"]["LABELS"]["value"] = labels
     analogs = np.zeros((1, len(labels), time.size * per_frame))
+    for k, values in enumerate(extra.values(), start=6 * len(plates)):
+        analogs[0, k, :] = np.repeat(np.asarray(values, dtype=float), per_frame)
     corners = np.zeros((3, 4, len(plates)))
     for k, plate in enumerate(plates.values()):
         lateral = np.nanmedian(plate.point[:, 1]) if np.isfinite(plate.point[:, 1]).any() else 0.0

@@ -5,7 +5,8 @@ A MOT or STO file has header lines up to ``endheader``, a line of column names a
 per sample. A plate is the set of columns ``<P>force_vx/vy/vz`` (the floor's force on the
 foot, N), ``<P>force_px/py/pz`` (its point of application, m) and ``<P>torque_x/y/z`` (the
 free torque, N m) for a prefix ``<P>`` such as ``ground_`` or ``1_ground_``. OpenSim's axes are
-Y up. The ``ExternalLoads`` XML beside it names, for each ``force_identifier``, the body the
+Y up. Any other column (a treadmill's belt speed, say) is kept by its name. The
+``ExternalLoads`` XML beside it names, for each ``force_identifier``, the body the
 force is ``applied_to_body``: ``calcn_r`` is the right foot, ``calcn_l`` the left.
 """
 
@@ -55,7 +56,8 @@ def read_mot(
     -------
     LabRecord
         No markers; one :class:`PlateSeries` per prefix (named by it without the trailing
-        ``_``, e.g. ``ground`` and ``1_ground``), Y up.
+        ``_``, e.g. ``ground`` and ``1_ground``), Y up; the file's other columns in
+        ``columns``, on the plates' times.
 
     Raises
     ------
@@ -110,18 +112,20 @@ def read_mot(
         )
 
     plates = {}
+    used = {"time"}
     for prefix in prefixes:
-        force = block([f"{prefix}force_v{a}" for a in _AXES])
-        point = block([f"{prefix}force_p{a}" for a in _AXES])
+        parts = [[f"{prefix}force_v{a}" for a in _AXES], [f"{prefix}force_p{a}" for a in _AXES]]
         torque_prefix = prefix[: -len("force_")] if prefix.endswith("force_") else prefix
-        torque = block([f"{torque_prefix}torque_{a}" for a in _AXES])
-        plates[prefix.rstrip("_")] = PlateSeries(time, force, point, torque)
+        parts.append([f"{torque_prefix}torque_{a}" for a in _AXES])
+        used.update(name for part in parts for name in part)
+        plates[prefix.rstrip("_")] = PlateSeries(time, *(block(part) for part in parts))
+    others = {name: data[:, k].copy() for name, k in column.items() if name not in used}
     sides = _sides(Path(mapping), plates) if mapping is not None else {}
     if mapping is not None:
         notes.append(f"{path.name}: plate sides from {Path(mapping).name}: {sides}")
     return LabRecord(
         time=np.empty(0), markers={}, plates=plates, up=1, source=str(path), notes=notes,
-        plate_sides=sides,
+        plate_sides=sides, columns=others,
     )  # fmt: skip
 
 
@@ -150,7 +154,11 @@ def _sides(mapping: Path, plates: dict[str, PlateSeries]) -> dict[str, str]:
     return sides
 
 
-def write_mot(path: str | os.PathLike[str], plates: dict[str, PlateSeries]) -> Path:
+def write_mot(
+    path: str | os.PathLike[str],
+    plates: dict[str, PlateSeries],
+    extra: dict[str, np.ndarray] | None = None,
+) -> Path:
     """Write plates as an OpenSim ground-reaction MOT file (Y up), whole or not at all.
 
     Parameters
@@ -158,6 +166,8 @@ def write_mot(path: str | os.PathLike[str], plates: dict[str, PlateSeries]) -> P
     path : path-like
     plates : dict
         Prefix (e.g. ``ground``, ``1_ground``) -> :class:`PlateSeries`, all on one time base.
+    extra : dict, optional
+        More columns on the plates' times (e.g. the belt speed), after the plates'.
 
     Returns
     -------
@@ -175,6 +185,9 @@ def write_mot(path: str | os.PathLike[str], plates: dict[str, PlateSeries]) -> P
         for k, axis in enumerate(_AXES):
             names.append(f"{prefix}_torque_{axis}")
             columns.append(plate.free_torque[:, k])
+    for name, values in (extra or {}).items():
+        names.append(name)
+        columns.append(np.asarray(values, dtype=float))
     data = np.column_stack(columns)
     header = [
         path.name,
