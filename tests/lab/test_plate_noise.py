@@ -33,6 +33,24 @@ def test_a_moment_from_a_centre_of_pressure_reads_its_noise_under_load(rate):
     assert moment_noise([(noisy, load)]) == pytest.approx(1.0, rel=0.1)
 
 
+def test_a_filtered_plate_shows_no_noise_and_its_moment_none_either():
+    import pandas as pd
+
+    from colloc.lab.raw_tables import plate_noise
+
+    t, load, moment = _stance(6000, 1000.0)
+    # filtered before export: forces exactly zero off the plate, the moment's small smooth
+    # remnant beside it (a centre of pressure times a force below the unloaded threshold)
+    remnant = np.where(load > 0, moment, 1e-3 * np.sin(t))
+    columns = {"time": t}
+    for side in ("right", "left"):
+        columns |= {f"{side}_force_x": 0.1 * load, f"{side}_force_y": load,
+                    f"{side}_moment": remnant}  # fmt: skip
+    found = plate_noise(pd.DataFrame(columns))
+    assert found == {"force": 0.0, "moment": 0.0}  # both left to colloc's defaults
+    assert moment_noise([(remnant, load)]) > 0.0  # what reading it alone would give
+
+
 def test_a_moment_never_recorded_has_no_noise():
     _, load, _ = _stance(600, 100.0)
     assert moment_noise([(np.zeros(600), load)]) == 0.0

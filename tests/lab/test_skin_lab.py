@@ -270,3 +270,23 @@ def test_the_belt_speed_travels_in_the_mot_and_the_c3d(kind, walk, perturbed_bel
     got, want = (t.signals["belt_speed"].to_numpy() for t in (trial, reference))
     np.testing.assert_allclose(got, want, atol=1e-3 if kind == "trc" else 1e-5)
     assert np.ptp(got) > 0.5
+
+
+def test_the_landmarks_can_be_kept_instead_of_the_markers_they_are_made_of(skin_files, tmp_path):
+    from colloc.cli import main
+    from colloc.data import read_trial
+
+    code = main(
+        ["gait", "trial-from-lab", str(skin_files["tsv"]), "--static",
+         str(skin_files["static_tsv"]), "--mass", "75", "--height", "1.8", "--belt-speed",
+         "LeftBeltSpeed", "--track", "landmarks", "--out", str(tmp_path / "t")]
+    )  # fmt: skip
+    assert code == 0
+    segments = read_trial(tmp_path / "t").metadata["markers"]["segments"]
+    assert segments["RLEK"] == "right_thigh" and segments["RGTRO"] == "trunk"
+    assert "R.Thigh.Front" not in segments
+    with pytest.raises(ValueError, match=r"track: expected one of \['markers', 'landmarks'\]"):
+        trial_from_lab(
+            skin_files["tsv"], LabSettings(*SUBJECT, belt_speed=1.2),
+            static=skin_files["static_tsv"], track="clusters",
+        )  # fmt: skip

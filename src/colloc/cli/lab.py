@@ -76,6 +76,15 @@ def add_parser(gs: Any) -> None:
         "malleoli) are taken from it and carried by their segment's marker cluster",
     )
     p.add_argument(
+        "--track",
+        choices=("markers", "landmarks"),  # colloc.lab.markers.TRACKED_MARKERS
+        default="markers",
+        help="what the trial keeps, unfiltered, for the marker smoother: 'markers', the "
+        "markers the record holds (the clusters and pelvis markers when the landmarks are "
+        "made from them); 'landmarks', the landmarks themselves, carried by the clusters and "
+        "regressed from the pelvis (default: %(default)s)",
+    )
+    p.add_argument(
         "--forward",
         default=None,
         metavar="AXIS",
@@ -288,6 +297,7 @@ def run(args: argparse.Namespace) -> int:
             mapping=args.grf_xml,
             forward=args.forward,
             static=args.static,
+            track=args.track,
         )
     except LabFileError as error:
         report_problems(COMMAND, [f"{error.source}: {p}" for p in error.problems])

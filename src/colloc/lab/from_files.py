@@ -17,7 +17,7 @@ from colloc.gait.strikes import UNLOADED_FORCE
 from colloc.lab.exports import LabExport, LabFileError
 from colloc.lab.formats import read_lab_file
 from colloc.lab.landmarks import landmark_record
-from colloc.lab.markers import DEFAULT_MARKER_SET, LANDMARKS, MarkerSet
+from colloc.lab.markers import DEFAULT_MARKER_SET, LANDMARKS, TRACKED_MARKERS, MarkerSet
 from colloc.lab.pipeline import LabResult, process_lab
 from colloc.lab.record import LabRecord, PlateSeries
 from colloc.lab.sagittal import sagittal_exports
@@ -34,6 +34,7 @@ def trial_from_lab(
     mapping: str | os.PathLike[str] | None = None,
     forward: str | None = None,
     static: str | os.PathLike[str] | None = None,
+    track: str = "markers",
 ) -> LabResult:
     """Read a lab's files and make a gait trial of them.
 
@@ -60,9 +61,11 @@ def trial_from_lab(
         malleoli) are taken from it and carried by their segments' clusters
         (:mod:`colloc.lab.landmarks`); what was taken is in the trial's metadata.
 
-    The trial keeps, unfiltered, the markers the record holds for the marker smoother: the
-    landmarks when the record marks them, else the clusters and pelvis markers they were
-    made from (each with its segment, in the metadata's ``markers: segments``).
+    track : {"markers", "landmarks"}
+        What the trial keeps, unfiltered, for the marker smoother (each with its segment, in
+        the metadata's ``markers: segments``): ``"markers"`` (default), the markers the
+        record holds, the landmarks when it marks them, else the clusters and pelvis markers
+        they were made from; ``"landmarks"``, the landmarks, carried and regressed.
 
     Returns
     -------
@@ -78,6 +81,8 @@ def trial_from_lab(
     """
     _check_types(settings, markers_file=markers_file, forces_file=forces_file, static=static)
     problems = settings.problems()
+    if track not in TRACKED_MARKERS:
+        problems.append(f"track: expected one of {list(TRACKED_MARKERS)}, found {track!r}")
     read: list[LabExport | LabRecord] = []
     for path, header, grf in ((markers_file, names, None), (forces_file, force_names, mapping)):
         if path is None:
@@ -126,7 +131,8 @@ def trial_from_lab(
             read[0], landmarks = landmark_record(
                 first, standing if isinstance(standing, LabRecord) else None
             )
-    tracked = landmarks.pop("tracked", None)
+    made_from = landmarks.pop("tracked", None)
+    tracked = made_from if track == "markers" else None
     markers, forces, settings, notes = _planar(read, settings, forward)
     result = process_lab(markers, settings, forces, tracked=tracked)
     result.notes[:0] = notes

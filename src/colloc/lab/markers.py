@@ -28,6 +28,11 @@ from colloc.data.columns import SIDES
 #: Landmarks of one side, proximal to distal.
 LANDMARKS: tuple[str, ...] = ("shoulder", "hip", "knee", "ankle", "heel", "toe")
 
+#: What a lab trial keeps, unfiltered, for the marker smoother
+#: (:func:`colloc.lab.trial_from_lab`'s ``track``): the markers the record holds, or the
+#: landmarks made of them.
+TRACKED_MARKERS: tuple[str, ...] = ("markers", "landmarks")
+
 #: The gait2d segment each landmark moves with (without the side): the hip joint centre is
 #: the trunk's origin, the lateral epicondyle sits on the femur, the malleolus on the shank.
 LANDMARK_SEGMENTS: dict[str, str] = {

@@ -49,7 +49,10 @@ def moment_noise(series: Sequence[tuple[np.ndarray, np.ndarray]]) -> float:
     centre of pressure (OpenSim's MOT, a C3D) is exactly zero off the plate, where no centre
     exists: read there, the noise came out 0.43 N m on a synthetic walk whose moments carry
     1 N m; read under load, where the centre of pressure moves slowly beside the noise,
-    1.00 N m.
+    1.00 N m. Plates filtered before export carry no white noise to read at all (OpenSim's
+    example MOT: 0.02 N m here, its forces exactly zero off the plate):
+    :func:`colloc.lab.raw_tables.plate_noise` does not read a moment's noise where the forces
+    show none.
 
     Parameters
     ----------

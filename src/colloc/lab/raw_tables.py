@@ -143,7 +143,8 @@ def plate_noise(table: pd.DataFrame) -> dict[str, float]:
     """The plates' noise, from the second differences of the samples (white noise: variance
     ``6 sigma^2``), robustly (1.4826 times the median absolute deviation): the forces' while
     the foot is off its plate (:func:`colloc.lab.noise.off_plate_noise`), the moment's where
-    it is recorded (:func:`colloc.lab.noise.moment_noise`). Zero when nothing varies."""
+    it is recorded (:func:`colloc.lab.noise.moment_noise`), when the forces show noise at
+    all. Zero when nothing varies."""
     load = {side: table[f"{side}_force_y"].to_numpy(dtype=float) for side in SIDES}
     force = off_plate_noise(
         [
@@ -151,8 +152,14 @@ def plate_noise(table: pd.DataFrame) -> dict[str, float]:
             for side in SIDES
         ]
     )
-    moment = moment_noise(
-        [(table[f"{side}_moment"].to_numpy(dtype=float), load[side]) for side in SIDES]
+    # plates filtered before export show no noise to read: the moment's smooth remnants are
+    # no white noise either (OpenSim's example MOT read 0.02 N m, which stopped the smoother)
+    moment = (
+        moment_noise(
+            [(table[f"{side}_moment"].to_numpy(dtype=float), load[side]) for side in SIDES]
+        )
+        if force > 0
+        else 0.0
     )
     return {"force": force, "moment": moment}
 
