@@ -35,6 +35,7 @@ from colloc.nlp.uncertainty_base import (
     Blocks,
     FitPoint,
     ParameterUncertainty,
+    Request,
     UncertaintyMethod,
     make_result,
 )
@@ -219,7 +220,8 @@ def _uncertainty(
         assert residuals is not None
         method, reason = choose_method(design, residuals, owners, per_output, blocks)
     chosen = _BY_NAME[method]
-    chosen.refuse(design, residuals, owners, blocks, per_output, asked)
+    request = Request(design, residuals, owners, blocks, per_output, asked)
+    chosen.refuse(request)
     nlp = design.nlp
     if num_measurements is None:
         num_measurements = count_measurements(design)
@@ -257,7 +259,7 @@ def _uncertainty(
                 "method='sandwich'"
             ) from exc
         fallback = _BY_NAME["sandwich"]
-        fallback.refuse(design, residuals, owners, blocks, per_output, asked)
+        fallback.refuse(request)
         point = dataclasses.replace(
             point, reason=f"{reason}; but {exc}, so the sandwich over time blocks instead"
         )

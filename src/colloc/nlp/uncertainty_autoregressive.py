@@ -5,9 +5,12 @@ priors' share from the noise model."""
 from __future__ import annotations
 
 from colloc.nlp.autocorrelated import autoregressive_covariance, autoregressive_obstacle
-from colloc.nlp.residuals import SignalResiduals
-from colloc.nlp.trials import Trials
-from colloc.nlp.uncertainty_base import Blocks, FitPoint, ParameterUncertainty, UncertaintyMethod
+from colloc.nlp.uncertainty_base import (
+    FitPoint,
+    ParameterUncertainty,
+    Request,
+    UncertaintyMethod,
+)
 
 
 class CannotModel(ValueError):
@@ -21,27 +24,19 @@ class Autoregressive(UncertaintyMethod):
     name = "autoregressive"
     needs_slopes = True
 
-    def refuse(
-        self,
-        design: Trials,
-        residuals: list[SignalResiduals] | None,
-        owners: list[int],
-        blocks: Blocks,
-        per_output: bool,
-        asked: bool,
-    ) -> None:
+    def refuse(self, request: Request) -> None:
         """Data it cannot model, or ``per_output`` (a KKT form), when asked for by name
         (``auto`` has checked the data before choosing it)."""
-        if not asked:
+        if not request.asked:
             return
-        assert residuals is not None  # the autoregression reads them
-        obstacle = autoregressive_obstacle(design, residuals, owners)
+        assert request.residuals is not None  # the autoregression reads them
+        obstacle = autoregressive_obstacle(request.design, request.residuals, request.owners)
         if obstacle:
             raise ValueError(
                 f"method: 'autoregressive' models each trial's tracked residuals as one series "
                 f"on a uniform grid, but {obstacle}; use method='sandwich'"
             )
-        if per_output:
+        if request.per_output:
             raise ValueError("per_output: only for method='kkt' (the autoregression needs none)")
 
     def covariance(self, point: FitPoint) -> ParameterUncertainty:

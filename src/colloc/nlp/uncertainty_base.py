@@ -89,6 +89,32 @@ class ParameterUncertainty:
 
 
 @dataclass(frozen=True)
+class Request:
+    """What was asked of a covariance, before any work on the KKT system.
+
+    Attributes
+    ----------
+    design : Trials
+    residuals : list of SignalResiduals or None
+        Every least-squares signal's residuals (None where none are needed).
+    owners : list of int
+        The trial of each.
+    blocks : Blocks
+        The sandwich's blocks as asked.
+    per_output : bool
+    asked : bool
+        Whether the user named the method (not ``auto``'s choice).
+    """
+
+    design: Trials
+    residuals: list[SignalResiduals] | None
+    owners: list[int]
+    blocks: Blocks
+    per_output: bool
+    asked: bool
+
+
+@dataclass(frozen=True)
 class FitPoint:
     """A fit at its solution, as every covariance method reads it.
 
@@ -200,15 +226,7 @@ class UncertaintyMethod:
     needs_residuals: ClassVar[bool] = True
     needs_slopes: ClassVar[bool] = False
 
-    def refuse(
-        self,
-        design: Trials,
-        residuals: list[SignalResiduals] | None,
-        owners: list[int],
-        blocks: Blocks,
-        per_output: bool,
-        asked: bool,
-    ) -> None:
+    def refuse(self, request: Request) -> None:
         """Raise ValueError, naming why, when this method cannot serve the fit (before any
         work on its KKT system). Nothing by default."""
 

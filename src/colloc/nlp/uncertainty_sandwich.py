@@ -13,15 +13,18 @@ from __future__ import annotations
 import numpy as np
 import scipy.sparse as sp
 
-from colloc.nlp.residuals import SignalResiduals
 from colloc.nlp.sandwich_blocks import (
     block_gradients,
     check_blocks_per_parameter,
     trial_block_starts,
 )
 from colloc.nlp.scores import per_sample
-from colloc.nlp.trials import Trials
-from colloc.nlp.uncertainty_base import Blocks, FitPoint, ParameterUncertainty, UncertaintyMethod
+from colloc.nlp.uncertainty_base import (
+    FitPoint,
+    ParameterUncertainty,
+    Request,
+    UncertaintyMethod,
+)
 
 
 class Sandwich(UncertaintyMethod):
@@ -30,18 +33,11 @@ class Sandwich(UncertaintyMethod):
     name = "sandwich"
     uses_blocks = True
 
-    def refuse(
-        self,
-        design: Trials,
-        residuals: list[SignalResiduals] | None,
-        owners: list[int],
-        blocks: Blocks,
-        per_output: bool,
-        asked: bool,
-    ) -> None:
+    def refuse(self, request: Request) -> None:
         """Blocks that leave a parameter only one block, or ``per_output`` (a KKT form)."""
-        check_blocks_per_parameter(design, trial_block_starts(blocks, design))
-        if per_output:
+        design = request.design
+        check_blocks_per_parameter(design, trial_block_starts(request.blocks, design))
+        if request.per_output:
             raise ValueError("per_output: only for method='kkt' (the sandwich needs no variances)")
 
     def covariance(self, point: FitPoint) -> ParameterUncertainty:
