@@ -233,7 +233,9 @@ def noise_model(request):
     return problem, guess, reference
 
 
-@pytest.mark.parametrize("segment", [7, 1000])
+# one segment of every node eliminates all the free inputs at once: 13-15 s a scheme, run
+# by benchmarks/slow_tests.py (the one-segment chain without them is tested above, in CI)
+@pytest.mark.parametrize("segment", [7, pytest.param(1000, marks=pytest.mark.slow)])
 def test_free_inputs_reach_ipopts_optimum(noise_model, segment):
     """Disturbances and a measured input at every node (eliminated inside each segment):
     the same optimum, disturbances included, as IPOPT on the full NLP."""
