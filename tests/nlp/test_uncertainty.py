@@ -127,6 +127,12 @@ def study() -> Study:
     )
 
 
+#: The three Monte Carlo checks share 40 fits with two kinds of error bars each (46 s): run
+#: by benchmarks/slow_tests.py; CI keeps the single-fit checks of the same errors below
+#: (against Gauss-Newton of the ODE, an analytic decay, the bound's arguments).
+MONTE_CARLO = pytest.mark.slow
+
+
 @dataclass
 class Realisations:
     estimates: np.ndarray  # (NUM_REALISATIONS, 4)
@@ -160,6 +166,7 @@ def realisations(study) -> Realisations:
     )
 
 
+@MONTE_CARLO
 def test_standard_errors_match_spread_over_noise_realisations(study, realisations):
     estimates, std_errors = realisations.estimates, realisations.std_errors
     variances = realisations.variances
@@ -176,6 +183,7 @@ def test_standard_errors_match_spread_over_noise_realisations(study, realisation
     assert np.all(np.abs(estimates.mean(axis=0) - noise_free) < 4 * standard_error_of_mean)
 
 
+@MONTE_CARLO
 def test_sandwich_standard_errors_match_the_spread_when_the_noise_model_is_right(realisations):
     # white noise of the assumed kind: the robust estimate must agree with the spread too
     # (it pays for its robustness with a noisier estimate of the standard error)
@@ -186,6 +194,7 @@ def test_sandwich_standard_errors_match_the_spread_when_the_noise_model_is_right
     assert np.all(np.abs(agreement - 1) < 0.15), agreement
 
 
+@MONTE_CARLO
 def test_cramer_rao_bound_at_the_truth_matches_the_spread(study, realisations):
     # the bound is computed before any fit, from the true states and gains and the noise
     # actually drawn; the efficient estimator's spread over the realisations must meet it
