@@ -320,6 +320,15 @@ def fake_pipeline(monkeypatch, calls, spectral_radius=0.5, settle_error=None, fa
         settled.stats = {**cycle.stats, "settled": sum(c[0] == "settle" for c in calls)}
         return settled
 
+    real_animation = workflow.write_animation
+
+    def write_animation(record, geometry, path, seconds):
+        # at most half a second of the fake walk: the command line's 5 s are 300 frames and
+        # 23 s of drawing a test does not look at (the animation is tested in tests/plot)
+        calls.append(("animation", seconds))
+        return real_animation(record, geometry, path, min(seconds, 0.5))
+
+    monkeypatch.setattr(workflow, "write_animation", write_animation)
     monkeypatch.setattr(workflow, "settle_cycle", settle_cycle)
     monkeypatch.setattr(workflow, "find_walking_cycle", find_walking_cycle)
     monkeypatch.setattr(workflow, "design_controller", design_controller)
