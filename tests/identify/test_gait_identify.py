@@ -240,6 +240,7 @@ def test_the_default_causal_phase_says_where_its_stride_and_reset_come_from(tmp_
     cycle per the cycle's duration, reset to 0, and the run's notes say so."""
     out = tmp_path / "s.json"
     args = ["--fit-fraction", "0.6", "--max-iter", "1", "--method", "closed-loop"]
+    args += ["--points", "4"]  # the phase's note does not depend on P; 4 points fit faster
     main(
         ["gait", "identify", str(FIXTURE), *args, "--no-plots", "--no-store", "--no-simulate"]
         + ["--json", str(out)]
