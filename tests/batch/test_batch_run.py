@@ -167,6 +167,9 @@ def test_the_repeat_flag_refuses_what_a_batch_cannot_do(tmp_path, capsys, flags,
     assert code == 2 and message in capsys.readouterr().err
 
 
+# two batches on two Dask clusters (27 s): run by benchmarks/slow_tests.py; in CI PostgreSQL
+# is exercised by the store's tests (round trips, concurrent writers)
+@pytest.mark.slow
 def test_the_same_batch_on_sqlite_and_postgresql_gives_the_same_runs(tmp_path, postgres_url):
     tasks = []
     for i in range(2):

@@ -308,9 +308,9 @@ def stripped_copy(tmp_path: Path) -> Path:
     return trial
 
 
-def test_truth_from_another_trial_scores_the_walk_like_the_walk_itself(identified, tmp_path):
-    """--truth: a trial without a controller, given the simulated trial's, is identified and
-    scored as the simulated trial is (same P, feedback, errors against the truth)."""
+def test_truth_from_another_trial_scores_the_walk_like_the_walk_itself(tmp_path):
+    """--truth: a trial without a controller, given the simulated trial's, is read as the
+    simulated trial is (same P, feedback and controller)."""
     trial = stripped_copy(tmp_path)
     alone = read_gait_data(GaitIdentifySettings(trial=trial, fit_fraction=0.6))
     own = read_gait_data(GaitIdentifySettings(trial=FIXTURE, fit_fraction=0.6))
@@ -319,7 +319,14 @@ def test_truth_from_another_trial_scores_the_walk_like_the_walk_itself(identifie
     assert given.trial.metadata["controller"] == own.trial.metadata["controller"]
     assert given.trial.metadata["truth_source"] == str(FIXTURE)
     assert "controller" not in alone.trial.metadata
-    # the whole command: the same errors against the truth as the simulated trial's own run
+
+
+# a second identification of the fixture (23 s): run by benchmarks/slow_tests.py
+@pytest.mark.slow
+def test_truth_from_another_trial_gives_the_simulated_trials_own_errors(identified, tmp_path):
+    """The whole command: the same errors against the truth as the simulated trial's own
+    run."""
+    trial = stripped_copy(tmp_path)
     out = tmp_path / "s.json"
     code = main(
         [

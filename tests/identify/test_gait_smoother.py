@@ -344,6 +344,9 @@ def test_lowpass_is_zero_lag_with_the_butterworth_gain_squared():
         lowpass(t, slow, 60.0)
 
 
+# two smoothers of 2 s (31 s): run by benchmarks/slow_tests.py; in CI the plates are tracked
+# through the contact model by the marker smoother's tests (tests/lab/test_marker_smoother.py)
+@pytest.mark.slow
 def test_ground_reactions_are_tracked_through_the_contact_model(window, dynamics):
     """Each foot's measured force (heel plus toe of the contact model, computed here from the
     fixture's exact states, plus 5 N of noise) is an output of the smoother's model; with the

@@ -103,6 +103,11 @@ def fit(measured: np.ndarray, modelled: bool, scheme=None):
     return prob, solution
 
 
+#: The calibration's repeated fits (21 s) run with benchmarks/slow_tests.py; CI keeps the
+#: single-fit checks of the process-noise model below.
+MONTE_CARLO = pytest.mark.slow
+
+
 @pytest.fixture(scope="module")
 def calibration():
     """Estimates and standard errors of (c, k) over realisations, by both methods."""
@@ -118,6 +123,7 @@ def calibration():
     return {key: (np.array(e), np.array(s), d) for key, (e, s, d) in out.items()}
 
 
+@MONTE_CARLO
 def test_modelled_process_noise_gives_honest_error_bars(calibration):
     estimates, errors, warnings = calibration["map"]
     truth = np.array([DAMPING, STIFFNESS])
@@ -132,6 +138,7 @@ def test_modelled_process_noise_gives_honest_error_bars(calibration):
     assert sum(bool(w) for w in warnings) <= REALISATIONS // 4, warnings
 
 
+@MONTE_CARLO
 def test_exact_dynamics_with_kkt_errors_is_overconfident_and_diagnosed(calibration):
     estimates, errors, warnings = calibration["today"]
     z = np.abs(estimates - np.array([DAMPING, STIFFNESS])) / errors
