@@ -85,6 +85,13 @@ def add_parser(gs: Any) -> None:
         "regressed from the pelvis (default: %(default)s)",
     )
     p.add_argument(
+        "--static-positions",
+        action="store_true",
+        help="with --static: place the tracked markers in their segments, and size the thigh "
+        "and shank, from the standing trial instead of from the walk's own inverse kinematics "
+        "(either way the standing trial's values are recorded in the trial's metadata)",
+    )
+    p.add_argument(
         "--forward",
         default=None,
         metavar="AXIS",
@@ -298,6 +305,7 @@ def run(args: argparse.Namespace) -> int:
             forward=args.forward,
             static=args.static,
             track=args.track,
+            static_positions=args.static_positions,
         )
     except LabFileError as error:
         report_problems(COMMAND, [f"{error.source}: {p}" for p in error.problems])

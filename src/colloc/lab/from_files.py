@@ -22,6 +22,7 @@ from colloc.lab.pipeline import LabResult, process_lab
 from colloc.lab.record import LabRecord, PlateSeries
 from colloc.lab.sagittal import sagittal_exports
 from colloc.lab.settings import LabSettings, check_settings
+from colloc.lab.static_trial import record_calibration, static_calibration
 
 
 def trial_from_lab(
@@ -35,6 +36,7 @@ def trial_from_lab(
     forward: str | None = None,
     static: str | os.PathLike[str] | None = None,
     track: str = "markers",
+    static_positions: bool = False,
 ) -> LabResult:
     """Read a lab's files and make a gait trial of them.
 
@@ -66,6 +68,13 @@ def trial_from_lab(
         the metadata's ``markers: segments``): ``"markers"`` (default), the markers the
         record holds, the landmarks when it marks them, else the clusters and pelvis markers
         they were made from; ``"landmarks"``, the landmarks, carried and regressed.
+    static_positions : bool
+        With ``static``: the marker smoother places the tracked markers in their segments,
+        and sizes the thigh and shank, from the standing trial
+        (:mod:`colloc.lab.static_trial`) instead of from the walk's own inverse kinematics
+        (least squares over the walk). Either way the standing trial's values are in the
+        metadata (``lab: static_trial``). On OpenSim's example walk the walk's own gave
+        moments closer to OpenSim's (see ``docs/lab.md``).
 
     Returns
     -------
@@ -81,6 +90,13 @@ def trial_from_lab(
     """
     _check_types(settings, markers_file=markers_file, forces_file=forces_file, static=static)
     problems = settings.problems()
+    if not isinstance(static_positions, bool):
+        problems.append(f"static_positions: expected True or False, found {static_positions!r}")
+    elif static_positions and static is None:
+        problems.append(
+            "static_positions (--static-positions): asked for, but no static trial given "
+            "(static=, --static)"
+        )
     if track not in TRACKED_MARKERS:
         problems.append(f"track: expected one of {list(TRACKED_MARKERS)}, found {track!r}")
     read: list[LabExport | LabRecord] = []
@@ -133,8 +149,21 @@ def trial_from_lab(
             )
     made_from = landmarks.pop("tracked", None)
     tracked = made_from if track == "markers" else None
-    markers, forces, settings, notes = _planar(read, settings, forward)
+    markers, forces, settings, notes, walking = _planar(read, settings, forward)
     result = process_lab(markers, settings, forces, tracked=tracked)
+    if isinstance(standing, LabRecord) and walking is not None:
+        calibration = static_calibration(
+            standing, result.trial.metadata["markers"]["segments"], walking
+        )
+        record_calibration(result.trial.metadata, calibration, use=static_positions)
+        notes.append(
+            calibration.describe()
+            + (
+                ": the markers are placed and the segments sized from it"
+                if static_positions
+                else ": recorded; the markers are placed and the segments sized from the walk"
+            )
+        )
     result.notes[:0] = notes
     result.trial.metadata["lab"]["notes"][:0] = notes
     if landmarks:
@@ -163,16 +192,17 @@ def _check_types(settings: Any, **paths: Any) -> None:
 
 def _planar(
     read: list[LabExport | LabRecord], settings: LabSettings, forward: str | None
-) -> tuple[LabExport, LabExport | None, LabSettings, list[str]]:
-    """The planar exports of what was read, and the settings with the plates' sides where
-    the files (or the centres of pressure under the feet) state them."""
+) -> tuple[LabExport, LabExport | None, LabSettings, list[str], np.ndarray | None]:
+    """The planar exports of what was read, the settings with the plates' sides where
+    the files (or the centres of pressure under the feet) state them, and the forward
+    direction of 3-D records in their axes (None for planar exports)."""
     if not any(isinstance(item, LabRecord) for item in read):
         exports = [item for item in read if isinstance(item, LabExport)]
-        return exports[0], exports[1] if len(exports) > 1 else None, settings, []
+        return exports[0], exports[1] if len(exports) > 1 else None, settings, [], None
     records = [item if isinstance(item, LabRecord) else _as_record(item) for item in read]
     marker_record = records[0]
     plate_record = records[1] if len(records) > 1 else records[0]
-    markers, plates, sides, notes, _ = sagittal_exports(
+    markers, plates, sides, notes, plane = sagittal_exports(
         marker_record, plate_record, settings.marker_set, forward
     )
     notes = (
@@ -205,7 +235,7 @@ def _planar(
             )
         settings = replace(settings, marker_set=replace(ms, plates=stated))
         notes.append(f"plates under the feet: {stated}")
-    return markers, forces, settings, notes
+    return markers, forces, settings, notes, plane.forward
 
 
 def _is_3d(export: LabExport) -> bool:

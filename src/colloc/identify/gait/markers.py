@@ -230,17 +230,20 @@ def plates_on_nodes(table: pd.DataFrame, times: np.ndarray) -> tuple[np.ndarray,
 
 def measured_lengths(meta: Mapping[str, Any]) -> dict[str, float]:
     """The thigh and shank lengths the trial's markers give (the mean of both sides), from
-    its ``lab: segment_lengths_m``; empty when it records none."""
+    its ``lab: segment_lengths_m``: the standing trial's (``static``) where the lab had one,
+    else the walk's (``measured``); empty when it records none."""
     lengths = _section(meta, "lab").get("segment_lengths_m")
     if not isinstance(lengths, Mapping):
         return {}
     out = {}
     for segment in ("thigh", "shank"):
-        found = [
-            float(lengths[f"{side}_{segment}"]["measured"])
-            for side in SIDES
-            if isinstance(lengths.get(f"{side}_{segment}"), Mapping)
-        ]
+        entries = [lengths.get(f"{side}_{segment}") for side in SIDES]
+        key = (
+            "static"
+            if all(isinstance(e, Mapping) and "static" in e for e in entries)
+            else "measured"
+        )
+        found = [float(e[key]) for e in entries if isinstance(e, Mapping) and key in e]
         if found and all(_positive(v) for v in found):
             out[segment] = float(np.mean(found))
     return out
@@ -329,7 +332,21 @@ def marker_smoother(
     p = np.array([{**dynamics.constants, **constants}[c] for c in gait.constants])
     signals = trial.signals.iloc[rows]
     pose = signals[list(TRUNK_COLUMNS + JOINT_ANGLE_COLUMNS)].to_numpy(dtype=float)
-    local = local_positions(gait, p, pose, markers, segments)
+    standing = {
+        name: np.asarray(xy, dtype=float)
+        for name, xy in dict(meta["markers"].get("in_segment_m") or {}).items()
+        if name in markers
+    }
+    walked = {name: xy for name, xy in markers.items() if name not in standing}
+    local = {**standing, **(local_positions(gait, p, pose, walked, segments) if walked else {})}
+    placed_from = {
+        name: (
+            str(meta["markers"].get("in_segment_from", "the static trial"))
+            if name in standing
+            else "the walk's inverse kinematics (least squares over the window)"
+        )
+        for name in markers
+    }
     tracked: dict[sm.Basic, tuple[sm.Expr, np.ndarray, float]] = {}
     for name, xy in markers.items():
         position = marker_position(gait, segments[name], tuple(local[name]))
@@ -381,7 +398,11 @@ def marker_smoother(
     facts = {
         "tracked": "markers and plates" if samples else "markers",
         "markers": {
-            name: {"segment": segments[name], "in_segment_m": [float(v) for v in local[name]]}
+            name: {
+                "segment": segments[name],
+                "in_segment_m": [float(v) for v in local[name]],
+                "from": placed_from[name],
+            }
             for name in markers
         },
         "noise": {
