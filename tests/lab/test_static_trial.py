@@ -138,6 +138,31 @@ def test_by_default_the_static_trial_is_recorded_and_the_walk_places_the_markers
     assert not (tmp_path / "t").exists()
 
 
+def test_a_static_trial_without_the_heels_is_a_note_unless_its_positions_are_asked_for(
+    skin_files, tmp_path
+):
+    """The walk marks its heels; a standing trial without them still carries the knees and
+    ankles the walk needs, so the trial is made, and says why the subject standing was not
+    measured. Asked to place the markers from it, the same files are refused."""
+    import pandas as pd
+
+    standing = pd.read_csv(skin_files["static_tsv"], sep="\t")
+    heels = [c for c in standing.columns if c.startswith(("R.Heel.", "L.Heel."))]
+    static = tmp_path / "static.tsv"
+    standing.drop(columns=heels).to_csv(static, sep="\t", index=False)
+    settings = LabSettings(*SUBJECT, belt_speed=1.2)
+    made = trial_from_lab(skin_files["trc"], settings, skin_files["mot"], static=static).trial
+    assert "static_trial" not in made.metadata["lab"]
+    assert any(
+        "the subject standing was not measured" in n and "Heel" in n
+        for n in made.metadata["lab"]["notes"]
+    )
+    with pytest.raises(LabFileError, match="Heel"):
+        trial_from_lab(
+            skin_files["trc"], settings, skin_files["mot"], static=static, static_positions=True
+        )
+
+
 def test_a_static_trial_without_a_landmark_is_named(skin_files, tmp_path):
     standing = read_lab_file(skin_files["static_trc"])
     del standing.markers["R.Knee.Med"], standing.markers["R.Knee.Lat"]

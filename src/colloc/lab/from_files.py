@@ -152,18 +152,28 @@ def trial_from_lab(
     markers, forces, settings, notes, walking = _planar(read, settings, forward)
     result = process_lab(markers, settings, forces, tracked=tracked)
     if isinstance(standing, LabRecord) and walking is not None:
-        calibration = static_calibration(
-            standing, result.trial.metadata["markers"]["segments"], walking
-        )
-        record_calibration(result.trial.metadata, calibration, use=static_positions)
-        notes.append(
-            calibration.describe()
-            + (
-                ": the markers are placed and the segments sized from it"
-                if static_positions
-                else ": recorded; the markers are placed and the segments sized from the walk"
+        try:
+            calibration = static_calibration(
+                standing, result.trial.metadata["markers"]["segments"], walking
             )
-        )
+        except LabFileError as error:
+            if static_positions:  # asked for: the trial cannot be what was asked
+                raise
+            notes.append(  # only information: the trial stands without it
+                f"static trial {standing.source}: the subject standing was not measured "
+                f"({'; '.join(error.problems)}); the markers are placed and the segments "
+                "sized from the walk"
+            )
+        else:
+            record_calibration(result.trial.metadata, calibration, use=static_positions)
+            notes.append(
+                calibration.describe()
+                + (
+                    ": the markers are placed and the segments sized from it"
+                    if static_positions
+                    else ": recorded; the markers are placed and the segments sized from the walk"
+                )
+            )
     result.notes[:0] = notes
     result.trial.metadata["lab"]["notes"][:0] = notes
     if landmarks:
