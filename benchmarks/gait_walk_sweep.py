@@ -5,8 +5,9 @@ default perturbation record at scale 1, the default controller (P = 20, feedback
 state but the hip's place) and the given motor noise. Recorded per case: the seconds walked,
 strides, whether it fell and the fall in words (colloc.gait.falls), or the reason it was
 refused before the work, and the wall time. Cases run in separate processes (``--workers``);
-every finished case is appended to the JSON at once, and a case already there (same speed,
-seed, noise and duration) is not run again, so an interrupted sweep resumes.
+every finished case is appended to the JSON at once with the commit it ran, and a case already
+there (same speed, seed, noise and duration) is not run again, so an interrupted sweep resumes
+(start a new ``--out`` after changing the code).
 
 The closing table counts, per speed and noise, the runs that walked the whole duration.
 
@@ -22,6 +23,7 @@ import itertools
 import json
 import os
 import platform
+import subprocess
 import tempfile
 import time
 from concurrent.futures import ProcessPoolExecutor, as_completed
@@ -55,8 +57,22 @@ def walk(speed: float, seed: int, motor_noise: float, duration: float) -> dict:
         "message": record.message,
         "cycle_nodes": result.summary.get("cycle", {}).get("cycle_nodes"),
         "spectral_radius": float(result.design_info.spectral_radius),
+        "walk_compiled": result.summary.get("walk_compiled"),
         "wall_time": time.perf_counter() - start,
     }
+
+
+def code_version() -> str:
+    """The commit the sweep runs (``+dirty`` when the work tree has changes)."""
+    root = Path(__file__).resolve().parents[1]
+
+    def git(*args: str) -> str:
+        return subprocess.run(
+            ["git", *args], capture_output=True, text=True, cwd=root
+        ).stdout.strip()
+
+    dirty = git("status", "--porcelain", "--untracked-files=no")
+    return git("rev-parse", "--short", "HEAD") + ("+dirty" if dirty else "")
 
 
 def _key(case: dict) -> tuple:
@@ -96,11 +112,12 @@ def main() -> None:
     ]
     cases = list(previous)
     machine = {"cpus": os.cpu_count(), "python": platform.python_version()}
+    commit = code_version()
     args.out.parent.mkdir(parents=True, exist_ok=True)
     with ProcessPoolExecutor(max_workers=args.workers) as pool:
         futures = [pool.submit(walk, *case) for case in todo]
         for future in as_completed(futures):
-            case = future.result()
+            case = future.result() | {"commit": commit}
             cases.append(case)
             said = case.get("refused") or case["message"]
             print(

@@ -7,7 +7,7 @@ import pytest
 import scipy.optimize
 
 from colloc.data.belt import perturbation_belt_speed
-from colloc.gait.closed_loop import simulate_walking
+from colloc.gait.closed_loop import c_compiler, simulate_walking
 from colloc.gait.design import JOINT_STATES, design_controller
 from colloc.gait.orbit import GaitDynamics
 from colloc.gait.strikes import strike_phase, threshold_crossing
@@ -179,3 +179,40 @@ def test_an_integrator_failure_is_said_in_the_integrators_words_not_casadis_call
     assert said.startswith("CVODES took too many steps") and "function.cpp" not in said
     assert _solver_says(RuntimeError(chain.format("CV_CONV_FAILURE"))) == "CVODES: CV_CONV_FAILURE"
     assert _solver_says(RuntimeError("plain words")) == "plain words"
+
+
+def test_jit_needs_a_compiler_and_is_said_in_the_stats(dyn, standing, controller, monkeypatch):
+    _, Tstar, K, _ = controller
+    monkeypatch.setenv("CC", "no-such-compiler-colloc")
+    assert c_compiler() is None
+    with pytest.raises(ValueError, match="jit: True needs a C compiler"):
+        simulate_walking(standing, Tstar, K, 0.1, dynamics=dyn, jit=True)
+    with pytest.raises(ValueError, match="jit: expected True, False or None"):
+        simulate_walking(standing, Tstar, K, 0.1, dynamics=dyn, jit="yes")
+    # a compiler that fails: the walk falls back to the interpreted expression, unchanged
+    monkeypatch.setenv("CC", "false")
+    assert c_compiler() is not None
+    fallback = simulate_walking(standing, Tstar, K, 0.2, dynamics=dyn, jit=True)
+    plain = simulate_walking(standing, Tstar, K, 0.2, dynamics=dyn, jit=False)
+    assert fallback.stats["compiled"] is False and plain.stats["compiled"] is False
+    np.testing.assert_array_equal(fallback.states, plain.states)
+    # a short walk is not compiled by default (compiling costs more than it saves)
+    short = simulate_walking(standing, Tstar, K, 0.2, dynamics=dyn)
+    assert short.stats["compiled"] is False
+
+
+@pytest.mark.slow
+def test_the_compiled_walk_is_the_interpreted_walk(dyn, standing, controller):
+    _, Tstar, K, _ = controller
+    x0 = standing.states[0].copy()
+    x0[12:18] += [0.2, -0.2, 0.1, -0.1, 0.2, 0.0]
+    runs = [
+        simulate_walking(
+            standing, Tstar, K, 0.5, dynamics=dyn, initial_state=x0, torque_noise=2.0, jit=jit
+        )
+        for jit in (True, False)
+    ]
+    assert [r.stats["compiled"] for r in runs] == [True, False]
+    assert np.ptp(runs[1].states[:, 12]) > 0.05  # the walk moves
+    # the same expression, evaluated in C: agreement to CVODES' tolerance (rtol 1e-6)
+    np.testing.assert_allclose(runs[0].states, runs[1].states, rtol=1e-5, atol=1e-6)

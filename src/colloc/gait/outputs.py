@@ -140,7 +140,8 @@ def summarize(
         ``GaitSimulationSettings.to_dict()``.
     record : ClosedLoopRecord
         ``times``, ``states``, ``right_heel_strikes``, ``left_heel_strikes``, ``fell``,
-        ``message``.
+        ``message`` and ``stats["compiled"]`` (whether the walk's right-hand side was
+        compiled to C, as ``walk_compiled``).
     cycle : WalkingCycle
     design_info : DesignInfo or None
         Its ``spectral_radius`` and ``extra["tuning"]`` are reported when present.
@@ -177,6 +178,7 @@ def summarize(
         "controller_spectral_radius": None if radius is None else float(radius),
         "controller_tuning": dict(getattr(design_info, "extra", {}).get("tuning", {})),
         "wall_times": {name: float(value) for name, value in timings.items()},
+        "walk_compiled": bool((getattr(record, "stats", {}) or {}).get("compiled", False)),
         "files": dict(files),
         "notes": list(notes),
         "package_versions": package_versions(),
