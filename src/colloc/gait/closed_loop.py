@@ -36,7 +36,9 @@ import os
 import re
 import shutil
 import time
+from collections.abc import Callable
 from dataclasses import dataclass, field
+from functools import partial
 from typing import Any
 
 import casadi as ca
@@ -352,7 +354,18 @@ def simulate_walking(
     if isinstance(substeps, bool) or not isinstance(substeps, int | np.integer) or substeps < 1:
         raise ValueError(f"substeps: expected a positive int, found {substeps!r}")
     integ, torque_fn, compiled = _integrator(
-        (dyn, Tstar.shape[0], h, CHUNK_SAMPLES, rtol, fb, phi0, window, int(substeps)),
+        partial(
+            _closed_loop_integrator,
+            dyn,
+            Tstar.shape[0],
+            h,
+            CHUNK_SAMPLES,
+            rtol,
+            fb,
+            phi0,
+            window,
+            int(substeps),
+        ),
         _compiler_for(jit, duration),
     )
 
@@ -487,15 +500,13 @@ def _compiler_for(jit: bool | None, duration: float) -> str | None:
 
 
 def _integrator(
-    arguments: tuple[Any, ...], compiler: str | None
+    build: Callable[..., tuple[ca.Function, ca.Function]], compiler: str | None
 ) -> tuple[ca.Function, ca.Function, bool]:
-    """The chunk integrator, compiled with ``compiler`` if given and it works.
-
-    ``arguments`` are :func:`_closed_loop_integrator`'s up to ``substeps``.
-    """
+    """The chunk integrator from ``build`` (:func:`_closed_loop_integrator` with all but
+    ``compiler`` given), compiled with ``compiler`` if given and it works."""
     if compiler is not None:
         try:
-            return (*_closed_loop_integrator(*arguments, compiler), True)
+            return (*build(compiler=compiler), True)
         except RuntimeError as error:
             logger.warning(
                 "simulate_walking: compiling the right-hand side with %s failed (%s); "
@@ -503,7 +514,7 @@ def _integrator(
                 compiler,
                 str(error).strip().splitlines()[-1][:200],
             )
-    return (*_closed_loop_integrator(*arguments), False)
+    return (*build(), False)
 
 
 def _lost(state: np.ndarray, hip_height_range: tuple[float, float]) -> str | None:
