@@ -10,7 +10,7 @@ from colloc.data.belt import perturbation_belt_speed
 from colloc.gait.closed_loop import c_compiler, simulate_walking
 from colloc.gait.design import JOINT_STATES, design_controller
 from colloc.gait.orbit import GaitDynamics
-from colloc.gait.strikes import strike_phase, threshold_crossing
+from colloc.gait.strikes import StrikeDetector, strike_phase, threshold_crossing
 from colloc.gait.walking_cycle import WalkingCycle
 
 BELT_FILE = (  # the copy the package ships (src/colloc/gait/reference/SOURCE.md)
@@ -216,3 +216,24 @@ def test_the_compiled_walk_is_the_interpreted_walk(dyn, standing, controller):
     assert np.ptp(runs[1].states[:, 12]) > 0.05  # the walk moves
     # the same expression, evaluated in C: agreement to CVODES' tolerance (rtol 1e-6)
     np.testing.assert_allclose(runs[0].states, runs[1].states, rtol=1e-5, atol=1e-6)
+
+
+def test_a_toe_grazing_the_belt_is_not_a_heel_strike():
+    detector = StrikeDetector(100.0)
+    # swing toe grazes: the foot's force passes 100 N on the toe alone, then falls
+    assert detector.update(0.00, 0.01, 60.0, 108.0, 0.0) is None
+    assert detector.update(0.01, 0.02, 108.0, 70.0, 0.0) is None
+    assert detector.pending is None
+    # a heel strike: the crossing, interpolated, at once (the toe is in the air)
+    assert detector.update(0.10, 0.11, 50.0, 250.0, 250.0) == pytest.approx(0.1025)
+    # mid-stance the heel leaves and strikes again while the toe holds the load: no crossing
+    assert detector.update(0.30, 0.31, 600.0, 700.0, 650.0) is None
+
+
+def test_a_foot_landing_toe_first_strikes_when_its_heel_takes_the_load():
+    detector = StrikeDetector(100.0)
+    assert detector.update(0.00, 0.01, 0.0, 200.0, 10.0) is None  # toe first
+    assert detector.update(0.01, 0.02, 200.0, 400.0, 150.0) is None  # heel 38 %
+    # the heel carries half: the strike is the foot's crossing, reported now
+    assert detector.update(0.02, 0.03, 400.0, 600.0, 320.0) == pytest.approx(0.005)
+    assert detector.pending is None

@@ -15,9 +15,10 @@ shift the whole schedule by ``phi_0`` every stride, a torque the design never sa
 then runs to ``1 + phi_0`` (the schedule repeats periodically).
 
 Heel strikes are detected online, sample by sample, as upward crossings of a vertical
-force threshold by a foot's total (heel plus toe) floor force; the crossing time is
-interpolated between the two samples. The controller learns of a right heel strike at the
-first sample after it (a one-sample detection delay).
+force threshold by a foot's total (heel plus toe) floor force that its heel makes
+(:class:`colloc.gait.strikes.StrikeDetector`: a toe grazing the belt is not one); the
+crossing time is interpolated between the two samples. The controller learns of a right
+heel strike at the first sample after it (a one-sample detection delay).
 
 Integration: the contact is stiff (cubic stiffness 5e7 N/m^3, friction slip scale 1 cm/s),
 so the closed-loop right-hand side, with the controller and the belt speed inside, is one
@@ -51,9 +52,9 @@ from colloc.gait.orbit import NUM_STATES, NUM_TORQUES, GaitDynamics
 from colloc.gait.strikes import (
     HEEL_STRIKE_THRESHOLD,
     MIN_STRIDE_INTERVAL,
+    StrikeDetector,
     foot_ground_reactions,
     strike_phase,
-    threshold_crossing,
     vertical_foot_forces,
 )
 
@@ -377,7 +378,8 @@ def simulate_walking(
     stride_duration, stride_count = nominal, 0
     stride_start = -float(initial_phase) * stride_duration
     strikes: dict[str, list[float]] = {"right": [], "left": []}
-    fy = np.zeros((num, 2))
+    detectors = {side: StrikeDetector(threshold) for side in strikes}
+    fy = np.zeros((num, 4))  # right and left foot, right and left heel
     fy[0] = _foot_forces(dyn, x0, v_all[0])
     fine: list[np.ndarray] = [x0[None, :]]
     fell, message, calls = False, "walked the whole duration", 0
@@ -415,8 +417,8 @@ def simulate_walking(
                 i = k
                 break
             for col, side in enumerate(("right", "left")):
-                crossing = threshold_crossing(
-                    times[k - 1], times[k], fy[k - 1, col], fy[k, col], threshold
+                crossing = detectors[side].update(
+                    times[k - 1], times[k], fy[k - 1, col], fy[k, col], fy[k, 2 + col]
                 )
                 if crossing is None or (
                     strikes[side] and crossing - strikes[side][-1] < MIN_STRIDE_INTERVAL
@@ -539,8 +541,9 @@ def _next_duration(measured: float, nominal: float) -> float:
 
 
 def _foot_forces(dyn: GaitDynamics, x: np.ndarray, v: float) -> np.ndarray:
+    """Vertical force on the right and left foot, then on the right and left heel."""
     f = np.asarray(dyn.contact_forces(x, v)).ravel()
-    return np.array([f[1] + f[3], f[5] + f[7]])
+    return np.array([f[1] + f[3], f[5] + f[7], f[1], f[5]])
 
 
 def _padded(values: np.ndarray, start: int, count: int) -> np.ndarray:
