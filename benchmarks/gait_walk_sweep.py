@@ -12,7 +12,7 @@ there (same speed, seed, noise and duration) is not run again, so an interrupted
 The closing table counts, per speed and noise, the runs that walked the whole duration.
 
 Usage: python benchmarks/gait_walk_sweep.py [--speeds 0.8 1.0 1.2 1.4 1.6] [--seeds 1 2]
-       [--motor-noise 0 3 5] [--duration 480] [--workers 2]
+       [--motor-noise 0 3 5] [--cases SPEED:SEED:NOISE ...] [--duration 480] [--workers 2]
        [--out benchmarks/results/gait_walk_sweep.json]
 """
 
@@ -99,15 +99,24 @@ def main() -> None:
     parser.add_argument("--speeds", type=float, nargs="+", default=[0.8, 1.0, 1.2, 1.4, 1.6])
     parser.add_argument("--seeds", type=int, nargs="+", default=[1, 2])
     parser.add_argument("--motor-noise", type=float, nargs="+", default=[0.0, 3.0, 5.0])
+    parser.add_argument(
+        "--cases",
+        nargs="*",
+        default=[],
+        metavar="SPEED:SEED:NOISE",
+        help="single cases run before the grid, e.g. 1.25:47:3",
+    )
     parser.add_argument("--duration", type=float, default=480.0)
     parser.add_argument("--workers", type=int, default=2)
     parser.add_argument("--out", type=Path, default=Path("benchmarks/results/gait_walk_sweep.json"))
     args = parser.parse_args()
     previous = json.loads(args.out.read_text())["cases"] if args.out.is_file() else []
     done = {_key(c) for c in previous}
+    single = [(float(v), int(s), float(n)) for v, s, n in (c.split(":") for c in args.cases)]
+    grid = itertools.product(args.speeds, args.seeds, args.motor_noise)
     todo = [
         (speed, seed, noise, args.duration)
-        for speed, seed, noise in itertools.product(args.speeds, args.seeds, args.motor_noise)
+        for speed, seed, noise in [*single, *grid]
         if (speed, seed, noise, args.duration) not in done
     ]
     cases = list(previous)
