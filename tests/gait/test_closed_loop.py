@@ -10,7 +10,12 @@ from colloc.data.belt import perturbation_belt_speed
 from colloc.gait.closed_loop import c_compiler, simulate_walking
 from colloc.gait.design import JOINT_STATES, design_controller
 from colloc.gait.orbit import GaitDynamics
-from colloc.gait.strikes import StrikeDetector, strike_phase, threshold_crossing
+from colloc.gait.strikes import (
+    LANDING_FORCE,
+    StrikeDetector,
+    strike_phase,
+    threshold_crossing,
+)
 from colloc.gait.walking_cycle import WalkingCycle
 
 BELT_FILE = (  # the copy the package ships (src/colloc/gait/reference/SOURCE.md)
@@ -230,10 +235,17 @@ def test_a_toe_grazing_the_belt_is_not_a_heel_strike():
     assert detector.update(0.30, 0.31, 600.0, 700.0, 650.0) is None
 
 
-def test_a_foot_landing_toe_first_strikes_when_its_heel_takes_the_load():
+def test_a_foot_landing_toe_first_strikes_when_its_heel_or_its_load_says_so():
     detector = StrikeDetector(100.0)
-    assert detector.update(0.00, 0.01, 0.0, 200.0, 10.0) is None  # toe first
-    assert detector.update(0.01, 0.02, 200.0, 400.0, 150.0) is None  # heel 38 %
+    assert detector.update(0.00, 0.01, 0.0, 120.0, 10.0) is None  # toe first
+    assert detector.update(0.01, 0.02, 120.0, 200.0, 70.0) is None  # heel 35 %
     # the heel carries half: the strike is the foot's crossing, reported now
-    assert detector.update(0.02, 0.03, 400.0, 600.0, 320.0) == pytest.approx(0.005)
+    assert detector.update(0.02, 0.03, 200.0, 260.0, 130.0) == pytest.approx(0.01 / 1.2)
     assert detector.pending is None
+    # a foot landing on its toe and staying there: a strike once it bears LANDING_FORCE
+    detector = StrikeDetector(100.0)
+    assert detector.update(1.00, 1.01, 50.0, 150.0, 0.0) is None
+    assert detector.update(1.01, 1.02, 150.0, LANDING_FORCE - 1.0, 0.0) is None
+    assert detector.update(1.02, 1.03, LANDING_FORCE - 1.0, LANDING_FORCE, 0.0) == (
+        pytest.approx(1.005)
+    )

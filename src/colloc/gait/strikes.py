@@ -14,7 +14,8 @@ its push-off torque spinning a foot that had left the belt. A heel switch alone 
 in stance the foot rocks, its heel leaving the belt and striking it again mid-stance while
 the toe carries the load. At a real heel strike the toe is in the air, so the strikes are the
 whole foot's crossings, to the sample (a force plate, which has only the foot's force, gives
-the same strikes: :mod:`colloc.lab`).
+the same strikes: :mod:`colloc.lab`). A foot that lands flat or on its toe is a strike as
+soon as its force reaches :data:`LANDING_FORCE`, which no graze does.
 """
 
 from __future__ import annotations
@@ -90,6 +91,10 @@ MIN_STRIDE_INTERVAL = 0.4
 #: Share of a foot's vertical force its heel must carry for a threshold crossing to be a heel
 #: strike (a toe grazing the belt in swing carries it all on the toe).
 HEEL_SHARE = 0.5
+#: A foot's vertical force [N] that makes a pending crossing a strike whatever the heel
+#: carries: a foot landing flat or toe first after the belt slowed (0.8 m/s walks, the belt at
+#: 0.48 m/s, fell at 291 s waiting for the heel), far above a graze (at most 108 N measured).
+LANDING_FORCE = 300.0
 
 
 @dataclass
@@ -97,8 +102,9 @@ class StrikeDetector:
     """The online heel-strike detector of one foot, fed one sample at a time.
 
     An upward crossing of ``threshold`` by the foot's vertical force is held until the heel
-    carries :data:`HEEL_SHARE` of that force, and then reported at the crossing's time; if the
-    force falls below ``threshold`` first (a toe grazing the belt), it is dropped.
+    carries :data:`HEEL_SHARE` of that force or the force reaches :data:`LANDING_FORCE`, and
+    then reported at the crossing's time; if the force falls below ``threshold`` first (a toe
+    grazing the belt), it is dropped.
 
     Attributes
     ----------
@@ -133,7 +139,7 @@ class StrikeDetector:
         crossing = threshold_crossing(t0, t1, f0, f1, self.threshold)
         if crossing is not None:
             self.pending = crossing
-        if self.pending is not None and heel1 >= HEEL_SHARE * f1:
+        if self.pending is not None and (heel1 >= HEEL_SHARE * f1 or f1 >= LANDING_FORCE):
             strike, self.pending = self.pending, None
             return strike
         return None
@@ -194,6 +200,7 @@ def threshold_crossing(
 __all__ = [
     "HEEL_SHARE",
     "HEEL_STRIKE_THRESHOLD",
+    "LANDING_FORCE",
     "MIN_STRIDE_INTERVAL",
     "StrikeDetector",
     "strike_phase",
