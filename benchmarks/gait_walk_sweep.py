@@ -96,7 +96,7 @@ def table(cases: list[dict]) -> str:
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--speeds", type=float, nargs="+", default=[0.8, 1.0, 1.2, 1.4, 1.6])
+    parser.add_argument("--speeds", type=float, nargs="*", default=[0.8, 1.0, 1.2, 1.4, 1.6])
     parser.add_argument("--seeds", type=int, nargs="+", default=[1, 2])
     parser.add_argument("--motor-noise", type=float, nargs="+", default=[0.0, 3.0, 5.0])
     parser.add_argument(
