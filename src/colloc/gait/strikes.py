@@ -93,7 +93,8 @@ MIN_STRIDE_INTERVAL = 0.4
 HEEL_SHARE = 0.5
 #: A foot's vertical force [N] that makes a pending crossing a strike whatever the heel
 #: carries: a foot landing flat or toe first after the belt slowed (0.8 m/s walks, the belt at
-#: 0.48 m/s, fell at 291 s waiting for the heel), far above a graze (at most 108 N measured).
+#: 0.48 m/s, fell at 291 s waiting for the heel), far above a graze (at most 127 N measured:
+#: 108 N at 1.3 m/s and 3 N m, 127 N at 0.8 m/s and 5 N m).
 LANDING_FORCE = 300.0
 
 
