@@ -6,6 +6,7 @@ from __future__ import annotations
 import json
 
 import numpy as np
+import pandas as pd
 import pytest
 
 from colloc.cli import main
@@ -98,6 +99,33 @@ def test_gait_smooth_tracks_a_lab_trials_markers_by_default(lab_trial, tmp_path,
     }  # fmt: skip
 
 
+def test_without_the_plates_the_markers_alone_leave_the_torques_further_from_the_walk(
+    walk, lab_trial, tmp_path
+):
+    folder = lab_trial.write(tmp_path / "lab")
+    errors, summaries = {}, {}
+    for source in ("markers", "markers-only"):
+        out = tmp_path / source
+        window = ["--start", "1.1", "--duration", "1.5", "--no-plots"]
+        assert main(["gait", "smooth", str(folder), "--out", str(out), "--smooth-from", source]
+                    + window) == 0  # fmt: skip
+        summaries[source] = json.loads((out / "smooth.json").read_text())
+        table = pd.read_csv(out / "smoothed.csv")
+        rows = np.searchsorted(np.round(walk.times, 6), np.round(table["time"].to_numpy(), 6))
+        assert np.allclose(walk.times[rows], table["time"])
+        errors[source] = _rms(table[list(TORQUE_COLUMNS)].to_numpy() - walk.torques[rows])
+    alone = summaries["markers-only"]
+    assert "tracked: the lab's raw markers alone (its plates not tracked)" in alone["notes"]
+    tracking = alone["windows"][0]["tracking"]
+    assert tracking["tracked"] == "markers"
+    assert set(tracking["fit"]) == {"marker_rms_mm", "torque_from_prior_rms_nm"}
+    assert tracking["fit"]["marker_rms_mm"] == pytest.approx(1.0, rel=0.3)  # 1 mm drawn
+    # the ankle's height the lab recorded stays the subject's without plates
+    assert tracking["segment_lengths_m"]["ankle_height"] == pytest.approx(0.0703, abs=2e-3)
+    # what the plates add: torques the markers alone leave further from the walk's
+    assert errors["markers-only"].mean() > 1.5 * errors["markers"].mean()
+
+
 def test_markers_asked_of_a_trial_without_them_is_refused(lab_trial, tmp_path, capsys):
     trial = lab_trial
     plain = type(trial)(
@@ -105,12 +133,15 @@ def test_markers_asked_of_a_trial_without_them_is_refused(lab_trial, tmp_path, c
         trial.metadata,
     )  # fmt: skip
     folder = plain.write(tmp_path / "plain")
-    code = main(
-        ["gait", "smooth", str(folder), "--out", str(tmp_path / "o"), "--smooth-from", "markers"]
-    )
-    assert code == 2
-    assert "this trial has none (--smooth-from angles)" in capsys.readouterr().err
-    assert not (tmp_path / "o" / "smooth.json").exists()
+    for source in ("markers", "markers-only"):
+        code = main(
+            ["gait", "smooth", str(folder), "--out", str(tmp_path / "o"), "--smooth-from", source]
+        )
+        assert code == 2
+        err = capsys.readouterr().err
+        assert f"{source!r} needs a lab trial with its raw markers" in err
+        assert "this trial has none (--smooth-from angles)" in err
+        assert not (tmp_path / "o" / "smooth.json").exists()
 
 
 def test_the_torques_prior_needs_the_inverse_dynamics(lab_trial):

@@ -123,7 +123,7 @@ def add_smoothing_options(parser: argparse.ArgumentParser, prefix: str = "") -> 
         choices=SMOOTH_SOURCES,
         default="auto",
         help=prefix + "what the smoother tracks: 'markers', a lab trial's raw markers and "
-        "plates; 'angles', the trial's angles, trunk pose and torques (a lab's through its 6 Hz "
+        "plates; 'markers-only', its markers without the plates; 'angles', the trial's angles, trunk pose and torques (a lab's through its 6 Hz "
         "filter, inverse kinematics and dynamics); 'auto', markers when the trial has them "
         "(default %(default)s)",
     )

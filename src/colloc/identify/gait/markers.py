@@ -270,7 +270,8 @@ def marker_smoother(
     settings : SmootherSettings, optional
         Default :func:`marker_settings`.
     use_plates : bool
-        Track the plates too (default, when the trial has them).
+        Track the plates too (default, when the trial has them). Without them the ankle's
+        height is still the one the lab recorded, if it did.
     noise : mapping, optional
         ``marker`` [m], ``force`` [N], ``moment`` [N m] replacing the trial's estimates,
         ``torque_prior`` [N m] replacing :data:`TORQUE_PRIOR_STD`.
@@ -316,9 +317,11 @@ def marker_smoother(
     s = gait.segment_symbols
     lengths = measured_lengths(meta)
     constants = {getattr(s, f"l_{k}"): v for k, v in lengths.items()}
-    if use_plates and "plates" in trial.tables:
-        height = meta["markers"].get("ankle_height_m")
-        if not _positive(height):  # a trial written before the lab recorded it
+    # The ankle's height the lab recorded is the subject's, with or without tracking plates;
+    # only a trial written before the lab recorded it has it read from the plates here.
+    height = meta["markers"].get("ankle_height_m")
+    if _positive(height) or (use_plates and "plates" in trial.tables):
+        if not _positive(height):
             height = ankle_height(
                 trial.tables["markers"],
                 trial.tables["plates"],

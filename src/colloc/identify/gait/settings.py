@@ -35,10 +35,11 @@ METHODS = ("smoother", "closed-loop")
 STRUCTURES = ("full", "joint-isolated")
 #: ``--smooth-from``: what the smoother tracks. ``markers``: the lab's raw markers and plates
 #: (a lab trial's ``markers.csv`` and ``plates.csv``; colloc.identify.gait.markers);
-#: ``angles``: the trial's angles, trunk pose and torques (a simulated trial's, or a lab's
-#: through its 6 Hz filter, inverse kinematics and dynamics); ``auto``: markers when the
-#: trial has them.
-SMOOTH_SOURCES = ("auto", "markers", "angles")
+#: ``markers-only``: the markers without the plates; ``angles``: the trial's angles, trunk
+#: pose and torques (a simulated trial's, or a lab's through its 6 Hz filter, inverse
+#: kinematics and dynamics); ``auto``: markers and plates when the trial has markers. The
+#: sources are colloc.identify.gait.windows.SOURCES.
+SMOOTH_SOURCES = ("auto", "markers", "markers-only", "angles")
 #: ``--noise-levels``: what the marker smoother's noise levels may replace.
 NOISE_LEVEL_NAMES = ("marker", "force", "moment", "torque_prior")
 #: Schedule points when neither ``points`` nor the trial's metadata give them.

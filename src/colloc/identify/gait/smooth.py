@@ -26,7 +26,7 @@ from colloc.gait.metadata import STATE_SIGNAL_NAMES
 from colloc.identify.gait.read import subject
 from colloc.identify.gait.settings import SMOOTH_SOURCES
 from colloc.identify.gait.windows import (
-    SOURCE_WORDS,
+    SOURCES,
     WindowMap,
     prefixed,
     smooth_windows,
@@ -170,7 +170,7 @@ def smooth_trial(
         raise ValueError(f"smooth_trial: {error}") from None
     notes = [
         f"subject: {subject(trial.metadata)[0]:g} kg, {subject(trial.metadata)[1]:g} m",
-        f"tracked: the {SOURCE_WORDS[source]}",
+        f"tracked: the {SOURCES[source].words}",
     ]
     jobs = window_jobs(
         trial, rows, windows, trial.metadata, "stride window", source, tuple(noise_levels)

@@ -17,7 +17,7 @@ from colloc.identify.gait.read import (
 )
 from colloc.identify.gait.stage import Fit, FitContext
 from colloc.identify.gait.windows import (
-    SOURCE_WORDS,
+    SOURCES,
     fit_windows,
     prefixed,
     smoothing_source,
@@ -54,7 +54,7 @@ def smoother_fit(c: FitContext) -> Fit:
     where = "" if c.map_windows is None else " on the workers"
     c.say(
         "smooth",
-        f"{len(jobs)} window(s){where} tracking the {SOURCE_WORDS[source]}: backward Euler, "
+        f"{len(jobs)} window(s){where} tracking the {SOURCES[source].words}: backward Euler, "
         "midpoint, continuation",
     )
     results = smooth_windows(jobs, prefixed(c.say, "smooth"), c.map_windows)
@@ -84,7 +84,7 @@ def smoother_fit(c: FitContext) -> Fit:
     strides = np.searchsorted(data.trial.right_heel_strikes, mid_t)
     # smoothed from markers, the torques are the smoother's, whose error (several N m) is no
     # measurement noise the trial records: the bound takes the residual's level
-    combined = None if source == "markers" else torque_equation_noise(meta)
+    combined = None if SOURCES[source].lab_markers else torque_equation_noise(meta)
     noise = None if combined is None else np.full(6, combined)
     c.say(
         "controller",
@@ -114,7 +114,7 @@ def smoother_fit(c: FitContext) -> Fit:
             else "the residual's ("
             + (
                 "the torques are the marker smoother's, not measured"
-                if source == "markers"
+                if SOURCES[source].lab_markers
                 else "no motor noise recorded"
             )
             + ")"

@@ -64,13 +64,14 @@ class WindowJob:
     body_mass, height : float
         The subject, for the model's segment parameters.
     settings : SmootherSettings or None
-        None: the source's own defaults (:data:`SMOOTHERS`).
+        None: the source's own defaults (:data:`SOURCES`).
     source : str
-        What the smoother tracks: ``markers`` (the lab's raw markers and plates,
-        :func:`colloc.identify.gait.markers.marker_smoother`) or ``angles`` (the trial's
-        angles, trunk and torques, :meth:`GaitSmoother.from_trial`).
+        What the smoother tracks, a key of :data:`SOURCES`: ``markers`` (the lab's raw
+        markers and plates, :func:`colloc.identify.gait.markers.marker_smoother`),
+        ``markers-only`` (the markers alone) or ``angles`` (the trial's angles, trunk and
+        torques, :meth:`GaitSmoother.from_trial`).
     noise : tuple of (str, float)
-        Source ``markers``: noise levels replacing the trial's estimates (``marker``,
+        A source that tracks markers: noise levels replacing the trial's estimates (``marker``,
         ``force``, ``moment``, ``torque_prior``; :class:`colloc.identify.gait.markers.MarkerNoise`).
     """
 
@@ -89,43 +90,73 @@ def _angle_smoother(dynamics: Any, job: WindowJob) -> tuple[GaitSmoother, dict[s
     return smoother, {"tracked": "angles"}
 
 
-def _marker_smoother(dynamics: Any, job: WindowJob) -> tuple[GaitSmoother, dict[str, Any]]:
+def _marker_smoother(
+    dynamics: Any, job: WindowJob, use_plates: bool = True
+) -> tuple[GaitSmoother, dict[str, Any]]:
     from colloc.identify.gait.markers import marker_smoother
 
-    return marker_smoother(dynamics, job.trial, job.rows, job.settings, noise=dict(job.noise))
+    return marker_smoother(
+        dynamics, job.trial, job.rows, job.settings, noise=dict(job.noise), use_plates=use_plates
+    )
 
 
-#: The smoother each source makes.
-SMOOTHERS: dict[str, Callable[..., tuple[GaitSmoother, dict[str, Any]]]] = {
-    "angles": _angle_smoother,
-    "markers": _marker_smoother,
-}
+@dataclass(frozen=True)
+class SmoothingSource:
+    """What a smoother tracks, and what follows from it.
+
+    Attributes
+    ----------
+    build : callable
+        ``build(dynamics, job) -> (smoother, facts)`` for one window.
+    words : str
+        How messages name what it tracks.
+    lab_markers : bool
+        It tracks a lab's raw markers: the trial must carry them, and the torques are the
+        smoother's own (no measurement whose noise the trial records).
+    """
+
+    build: Callable[[Any, WindowJob], tuple[GaitSmoother, dict[str, Any]]]
+    words: str
+    lab_markers: bool
 
 
-#: How messages name what each source tracks.
-SOURCE_WORDS: dict[str, str] = {
-    "angles": "trial's angles, trunk pose and torques",
-    "markers": "lab's raw markers and plates",
+#: ``--smooth-from`` (but ``auto``) -> what the smoother tracks. ``markers-only`` is the
+#: lab's markers without its plates: what the plates add to the estimate and its bound is
+#: the difference between the two.
+SOURCES: dict[str, SmoothingSource] = {
+    "angles": SmoothingSource(_angle_smoother, "trial's angles, trunk pose and torques", False),
+    "markers": SmoothingSource(_marker_smoother, "lab's raw markers and plates", True),
+    "markers-only": SmoothingSource(
+        functools.partial(_marker_smoother, use_plates=False),
+        "lab's raw markers alone (its plates not tracked)",
+        True,
+    ),
 }
 
 
 def smoothing_source(requested: str, trial: Any) -> str:
-    """The source a run smooths from: ``requested``, or for ``auto`` the lab's markers when
-    the trial carries them, else its angles.
+    """The source a run smooths from: ``requested``, or for ``auto`` the lab's markers and
+    plates when the trial carries markers, else its angles.
 
     Raises
     ------
     ValueError
-        When ``markers`` is asked of a trial without them.
+        When a source of :data:`SOURCES` that tracks markers is asked of a trial without them,
+        or ``requested`` is none of ``auto`` and :data:`SOURCES`.
     """
     from colloc.identify.gait.markers import has_markers
 
     if requested == "auto":
         return "markers" if has_markers(trial) else "angles"
-    if requested == "markers" and not has_markers(trial):
+    if requested not in SOURCES:
         raise ValueError(
-            "smooth_from: 'markers' needs a lab trial with its raw markers (markers.csv, as "
-            "colloc gait trial-from-lab writes it); this trial has none (--smooth-from angles)"
+            f"smooth_from: expected 'auto' or one of {list(SOURCES)}, found {requested!r}"
+        )
+    if SOURCES[requested].lab_markers and not has_markers(trial):
+        raise ValueError(
+            f"smooth_from: {requested!r} needs a lab trial with its raw markers (markers.csv, "
+            "as colloc gait trial-from-lab writes it); this trial has none (--smooth-from "
+            "angles)"
         )
     return requested
 
@@ -149,14 +180,14 @@ def smooth_window(job: WindowJob, progress: Progress | None = None) -> SmoothedG
         When a stage of the window's smoother does not converge.
     """
     dynamics = gait_dynamics(job.body_mass, job.height)
-    smoother, facts = SMOOTHERS[job.source](dynamics, job)
+    smoother, facts = SOURCES[job.source].build(dynamics, job)
 
     def report(stage: str, detail: str) -> None:
         if progress is not None:
             progress(stage, f"{job.label}{detail}")
 
     result = smoother.run(progress=report)
-    if job.source == "markers":
+    if SOURCES[job.source].lab_markers:
         from colloc.identify.gait.markers import tracking_fit
 
         facts = {**facts, "fit": tracking_fit(result.problem, result.z)}
@@ -226,8 +257,8 @@ def window_jobs(
     noise: tuple[tuple[str, float], ...] = (),
 ) -> list[Any]:
     """One smoothing job per window of ``part``'s samples ``rows`` (each its own samples
-    alone: what travels to a worker), each smoothing from ``source`` (:data:`SMOOTHERS`)
-    with the noise levels ``noise`` (source ``markers``)."""
+    alone: what travels to a worker), each smoothing from ``source`` (:data:`SOURCES`)
+    with the noise levels ``noise`` (sources that track markers)."""
     body = subject(meta)
     return [
         WindowJob(
