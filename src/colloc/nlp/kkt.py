@@ -72,6 +72,60 @@ def states_kkt(H: sp.spmatrix, C: sp.spmatrix, p0: int) -> sp.csc_matrix:
     return sp.bmat([[H[:p0, :p0], Cs.T], [Cs, None]], format="csc")
 
 
+def eliminate_states(
+    design: Trials, z: np.ndarray, hessian: np.ndarray
+) -> tuple[int, np.ndarray, np.ndarray, np.ndarray]:
+    """The states and constraints eliminated from the KKT matrix at ``z``.
+
+    Parameters
+    ----------
+    design : Trials
+    z : ndarray, shape (n,)
+    hessian : ndarray
+        ``H``'s values in the NLP's Hessian structure.
+
+    Returns
+    -------
+    p0 : int
+        Where the parameters start in the free vector.
+    B : ndarray, shape (n_s + m, n_p)
+        ``[H_sp; C_p]``.
+    X : ndarray, shape (n_s + m, n_p)
+        ``K_s^-1 B``.
+    S : ndarray, shape (n_p, n_p)
+        The parameters' Schur complement ``H_pp - B^T K_s^-1 B``, symmetrised: with the
+        Gauss-Newton ``H`` of a likelihood, twice the parameters' Fisher information with
+        every other free variable unknown. It may be singular (data that cannot identify
+        some parameter).
+
+    Raises
+    ------
+    ValueError
+        When ``K_s`` is singular.
+    """
+    p0 = design.parameter_offset
+    H = hessian_matrix(design, hessian)
+    C = constraint_jacobian(design, z)
+    Hsp, Hpp = H[:p0, p0:], H[p0:, p0:].toarray()
+    B = sp.vstack([Hsp, C[:, p0:]]).toarray()
+    try:
+        lu = spla.splu(states_kkt(H, C, p0))
+    except RuntimeError as exc:
+        raise ValueError(
+            "the KKT matrix at the solution is singular: the states are not determined by "
+            "the data and the dynamics"
+        ) from exc
+    # A parameter that no state or constraint sees (a schedule point a short window never
+    # reaches) has a zero column in B, and so in X: solve for the others only.
+    seen = np.flatnonzero(np.any(B != 0.0, axis=0))
+    X = np.zeros_like(B)
+    S = Hpp.copy()
+    if seen.size:
+        X[:, seen] = lu.solve(np.ascontiguousarray(B[:, seen]))  # K_s's factors freed after
+        S[np.ix_(seen, seen)] -= B[:, seen].T @ X[:, seen]
+    return p0, B, X, 0.5 * (S + S.T)
+
+
 class ReducedKKT:
     """The KKT matrix ``K = [[H, C^T], [C, 0]]`` at ``z``, with the parameters eliminated.
 
@@ -97,26 +151,9 @@ class ReducedKKT:
     """
 
     def __init__(self, design: Trials, z: np.ndarray, hessian: np.ndarray) -> None:
-        p0 = design.parameter_offset
-        H = hessian_matrix(design, hessian)
-        C = constraint_jacobian(design, z)
-        Hsp, Hpp = H[:p0, p0:], H[p0:, p0:].toarray()
-        Cp = C[:, p0:]
-        Ks = states_kkt(H, C, p0)
-        self.p0 = p0
-        B = sp.vstack([Hsp, Cp]).toarray()
+        self.p0, _, self.X, S = eliminate_states(design, z, hessian)
         try:
-            lu = spla.splu(Ks)
-        except RuntimeError as exc:
-            raise ValueError(
-                "the KKT matrix at the solution is singular: the states are not determined by "
-                "the data and the dynamics"
-            ) from exc
-        # only X = K_s^-1 B is kept: the factors of K_s are freed with this frame
-        self.X = lu.solve(B)
-        S = Hpp - B.T @ self.X
-        try:
-            self.S_inv = np.linalg.inv(0.5 * (S + S.T))
+            self.S_inv = np.linalg.inv(S)
         except np.linalg.LinAlgError as exc:
             raise ValueError(
                 "the reduced Hessian of the parameters is singular: some unknown parameters "

@@ -1,0 +1,215 @@
+"""The Cramér–Rao bound of the whole design: the schedule with the states unknown.
+
+The bound the schedule's least squares reports (:mod:`colloc.identify.gait.controller_fit`)
+takes the fed-back states as known. The fit does not have them: it has tracked signals with
+their noise, and motor noise enters the torques before the plant moves the states. The bound
+of that design is the one of the closed loop's maximum a posteriori problem (the seed's
+closed-loop collocation): gait2d closed by ``T = T*(phi) - K(phi) s + w``, every state free
+at every node, the tracked signals weighed by their noise ``1 / sigma^2``, and the motor
+noise ``w`` penalised by its own ``1 / sigma_w^2``. Its Gauss-Newton Hessian with the
+dynamics as constraints, the states and ``w`` eliminated (:func:`colloc.nlp.kkt.eliminate_states`),
+is twice the Fisher information of ``T*`` and ``K``.
+
+Windows of strides are independent given the controller, so the information of a record is
+the sum of its windows' (each window's states its own: the joins' few nodes are counted
+once less, a bound a little wider than the unbroken record's). Only sparse banded solves and
+one dense ``n_p x n_p`` block per window are formed: never the dense right-hand sides of the
+whole record.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+
+@dataclass(frozen=True)
+class WindowDesign:
+    """One window of the design, at its nodes.
+
+    Attributes
+    ----------
+    times : ndarray, shape (N,)
+    states : ndarray, shape (N, 18)
+        Where the information is evaluated (the smoothed or true states).
+    torques : ndarray, shape (N, 6)
+        The joint torques there (they fix the motor noise ``w`` at which the dynamics'
+        Jacobian is evaluated).
+    belt_speed : ndarray, shape (N,)
+    phase : ndarray, shape (N,)
+        The controller's unwrapped phase in cycles.
+    """
+
+    times: np.ndarray
+    states: np.ndarray
+    torques: np.ndarray
+    belt_speed: np.ndarray
+    phase: np.ndarray
+
+
+class ClosedLoopInformation:
+    """The Fisher information of the schedule's parameters from windows of a record, states
+    unknown.
+
+    The closed loop's problem is built once per window length (and sampling interval) and
+    its known trajectories (belt speed, phase) swapped for each window of that length
+    (:meth:`colloc.Problem.replace_data`), so a long record costs one build.
+
+    Parameters
+    ----------
+    dyn : GaitDynamics
+        The plant (:class:`colloc.gait.orbit.GaitDynamics`).
+    gs : GainScheduled
+        The schedule's structure.
+    noise : mapping
+        Tracked column (a name of :func:`colloc.identify.gait.read.state_names` or a torque
+        column) -> its noise standard deviation per sample.
+    motor_noise : float
+        Standard deviation of the motor noise per sample and joint [N m], > 0.
+    scheme : Scheme, optional
+        The transcription (default the midpoint rule, as the closed-loop fit).
+
+    Raises
+    ------
+    ValueError
+        For a motor noise or tracked noise that is not a positive number, or an unknown
+        column.
+    """
+
+    def __init__(
+        self,
+        dyn: Any,
+        gs: Any,
+        noise: Mapping[str, float],
+        motor_noise: float,
+        scheme: Any = None,
+    ) -> None:
+        from sympy.physics.mechanics import dynamicsymbols
+
+        from colloc.data.columns import TORQUE_COLUMNS
+        from colloc.identify.gait.read import state_names
+        from colloc.model.symbols import name_of
+
+        if not (np.isfinite(motor_noise) and motor_noise > 0):
+            raise ValueError(
+                f"motor_noise: expected a standard deviation > 0, found {motor_noise!r}"
+            )
+        model, gait = dyn.model, dyn.gait
+        by_column = dict(zip(state_names(), model.states, strict=True))
+        by_column.update(zip(TORQUE_COLUMNS, gait.torques, strict=True))
+        unknown = sorted(set(noise) - set(by_column))
+        if unknown:
+            raise ValueError(f"noise: no tracked signal is named {', '.join(unknown)}")
+        bad = {c: v for c, v in noise.items() if not (np.isfinite(v) and v > 0)}
+        if bad:
+            raise ValueError(f"noise: expected standard deviations > 0, found {bad}")
+        self.dyn, self.gs, self.scheme = dyn, gs, scheme
+        self.tracked = [by_column[c] for c in noise]
+        self.weights = {by_column[c]: 1.0 / v**2 for c, v in noise.items()}
+        self.motor = {T: dynamicsymbols(f"motor_noise_{name_of(T)}") for T in gait.torques}
+        self.motor_noise = float(motor_noise)
+        index = {x: i for i, x in enumerate(model.states)}
+        self.feedback = [index[x] for x in gs.feedback]
+        self._built: dict[tuple[int, float], Any] = {}
+
+    def _problem(self, window: WindowDesign) -> Any:
+        from colloc.nlp.objective import Tracking
+        from colloc.nlp.problem import Problem
+        from colloc.transcription import Midpoint
+
+        dyn, gs, gait = self.dyn, self.gs, self.dyn.gait
+        N = window.times.size
+        known = {gait.belt_speed: window.belt_speed, gs.phase: window.phase}
+        key = (N, round(float(np.mean(np.diff(window.times))), 9))
+        problem = self._built.get(key)
+        if problem is None:
+            closed = dyn.model.with_outputs(self.tracked).with_disturbances(self.motor)
+            # the data's values do not enter the Gauss-Newton information, only where it is
+            # taken: the tracked values are zeros
+            problem = Problem(
+                closed.close_loop(gs),
+                window.times,
+                scheme=Midpoint() if self.scheme is None else self.scheme,
+                known_trajectories=known,
+                known_parameters=dict(dyn.constants),
+                objective=Tracking({y: np.zeros(N) for y in self.tracked}, self.weights),
+                process_noise=dict.fromkeys(self.motor.values(), self.motor_noise),
+            )
+            self._built[key] = problem
+        else:
+            problem.replace_data(known_trajectories=known)
+        return problem
+
+    def __call__(self, window: WindowDesign, Tstar: np.ndarray, K: np.ndarray) -> np.ndarray:
+        """The information from ``window`` at the schedule ``Tstar``, ``K``.
+
+        Parameters
+        ----------
+        window : WindowDesign
+        Tstar, K : ndarray
+            The schedule at which the information is evaluated (it enters through the
+            closed loop's Jacobian).
+
+        Returns
+        -------
+        ndarray, shape (n_p, n_p)
+            In the order of ``gs.parameters``; singular when the window does not reach every
+            schedule point.
+
+        Raises
+        ------
+        ValueError
+            When the data and dynamics do not determine the window's states.
+        """
+        from colloc.nlp.kkt import eliminate_states
+        from colloc.nlp.trials import as_trials
+
+        gs = self.gs
+        problem = self._problem(window)
+        law = gs.torque(window.phase, window.states[:, self.feedback], Tstar, K)
+        guess: dict[Any, np.ndarray] = dict(
+            zip(self.dyn.model.states, window.states.T, strict=True)
+        )
+        guess.update({w: (window.torques - law)[:, j] for j, w in enumerate(self.motor.values())})
+        z = problem.initial_guess(guess, gs.parameter_values(Tstar, K))
+        design = as_trials(problem)
+        _, _, _, S = eliminate_states(design, z, design.nlp.gauss_newton_hessian(z))
+        names = list(problem.layout.parameter_names)
+        order = [names.index(str(p)) for p in gs.parameters]
+        # the Gauss-Newton Hessian of sum w r^2 is twice J^T W J, the Fisher information
+        return 0.5 * S[np.ix_(order, order)]
+
+
+def design_bound(informations: Sequence[np.ndarray]) -> np.ndarray:
+    """The covariance bound of the parameters from the windows' informations, summed.
+
+    Parameters
+    ----------
+    informations : sequence of ndarray, shape (n_p, n_p)
+
+    Returns
+    -------
+    ndarray, shape (n_p, n_p)
+
+    Raises
+    ------
+    ValueError
+        When there are none, or their sum is singular (a parameter the whole design cannot
+        identify).
+    """
+    if not informations:
+        raise ValueError("informations: expected at least one window's information")
+    total = np.sum(informations, axis=0)
+    try:
+        return np.linalg.inv(0.5 * (total + total.T))
+    except np.linalg.LinAlgError as exc:
+        raise ValueError(
+            "the design's information is singular: some schedule parameter is not identified "
+            "by these windows"
+        ) from exc
+
+
+__all__ = ["ClosedLoopInformation", "WindowDesign", "design_bound"]
