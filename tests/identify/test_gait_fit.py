@@ -17,6 +17,7 @@ from sympy.physics.mechanics import dynamicsymbols
 
 from colloc.cli import main
 from colloc.control.gain_scheduled import GainScheduled
+from colloc.data.trial import read_trial
 from colloc.identify.gait.controller_fit import fit_schedule_with_errors, relative_spread
 
 FIXTURE = Path(__file__).parent / "data" / "gait_trial_p20"
@@ -215,9 +216,14 @@ def test_the_smoother_fit_runs_end_to_end_with_its_bounds_and_errors(tmp_path):
     code = main(
         ["gait", "identify", str(FIXTURE), "--phase", "controller", "--fit-fraction", "0.6"]
         + ["--no-plots", "--no-store", "--no-simulate", "--json", str(out)]
+        + ["--design-bound", "full"]
     )
     summary = json.loads(out.read_text())
     assert code == 0 and summary["settings"]["method"] == "smoother"
+    # the whole design's bound needs the motor noise, which this walk had none of: said
+    assert summary["K_relative_bound_full_design"] is None
+    assert any("records no motor noise" in n and "design bound" in n for n in summary["notes"])
+    assert summary["K_relative_bound_states_known"] == summary["K_relative_bound"]
     assert summary["status"] == "Solve_Succeeded"
     # noise-free record, weighted as if it had the lab noise (0.25 deg, 1 N m): the smoother
     # trades 0.04-0.12 deg of angle for the measured torques under the midpoint rule's error
@@ -241,6 +247,30 @@ def test_the_smoother_fit_runs_end_to_end_with_its_bounds_and_errors(tmp_path):
     # by up to 0.056, the left knee's from 0.70 to 0.69 (measured)
     vaf = summary["validation"]["torque_vaf"]["collocation"]
     assert min(vaf.values()) > 0.6
+
+
+def test_the_whole_designs_bound_sits_beside_the_states_known_one(tmp_path):
+    """The fixture declared as walked with 3 N m of motor noise (its samples do not enter the
+    Gauss-Newton information, only where it is taken): ``--design-bound full`` reports the
+    whole design's bound beside the schedule's own. With the lab's 0.25 deg and 1 N m the
+    states cost little: on 20 s of a 3 N m walk the two were 1.6 % apart."""
+    trial = read_trial(FIXTURE)
+    trial.metadata["motor_noise"] = {"std": 3.0, "seed": 1}
+    folder = trial.write(tmp_path / "trial")
+    out = tmp_path / "s.json"
+    code = main(
+        ["gait", "identify", str(folder), "--phase", "controller", "--fit-fraction", "0.6"]
+        + ["--no-plots", "--no-store", "--no-simulate", "--json", str(out)]
+        + ["--design-bound", "full"]
+    )
+    summary = json.loads(out.read_text())
+    assert code == 0
+    full, known = summary["K_relative_bound_full_design"], summary["K_relative_bound"]
+    assert known > 0 and 0.9 * known < full < 1.5 * known
+    Tfull, Tknown = summary["Tstar_relative_bound_full_design"], summary["Tstar_relative_bound"]
+    assert 0.9 * Tknown < Tfull < 1.5 * Tknown
+    assert any(n.startswith("design bound: the whole design's, states unknown") for n in
+               summary["notes"])  # fmt: skip
 
 
 def test_records_sharing_the_controller_keep_their_lags_inside_and_add_up(design):

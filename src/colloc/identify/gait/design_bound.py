@@ -212,4 +212,86 @@ def design_bound(informations: Sequence[np.ndarray]) -> np.ndarray:
         ) from exc
 
 
-__all__ = ["ClosedLoopInformation", "WindowDesign", "design_bound"]
+#: Nodes of the pieces the smoothed windows are cut into for the bound. Measured on 20 s of a
+#: 1.15 m/s trial (3 N m): pieces of 50 nodes gave a K bound 0.8 % wider than pieces of 125
+#: (a join drops one interval's dynamics) in half the time, as a piece costs in proportion to
+#: its nodes times the schedule points it reaches.
+PIECE_NODES = 50
+
+
+def pieces(window: WindowDesign, nodes: int = PIECE_NODES) -> list[WindowDesign]:
+    """``window`` cut into consecutive pieces of ``nodes`` nodes (a shorter rest dropped).
+
+    Parameters
+    ----------
+    window : WindowDesign
+    nodes : int
+        At least 3.
+
+    Returns
+    -------
+    list of WindowDesign
+    """
+    if nodes < 3:
+        raise ValueError(f"nodes: expected at least 3 nodes per piece, found {nodes}")
+    out = []
+    for first in range(0, window.times.size - nodes + 1, nodes):
+        rows = slice(first, first + nodes)
+        out.append(
+            WindowDesign(
+                window.times[rows],
+                window.states[rows],
+                window.torques[rows],
+                window.belt_speed[rows],
+                window.phase[rows],
+            )
+        )
+    return out
+
+
+def full_design_bound(
+    information: ClosedLoopInformation,
+    windows: Sequence[WindowDesign],
+    Tstar: np.ndarray,
+    K: np.ndarray,
+) -> tuple[np.ndarray, np.ndarray, int]:
+    """The whole design's bound of ``T*`` and ``K``: each window cut into :func:`pieces`, their
+    informations summed.
+
+    Parameters
+    ----------
+    information : ClosedLoopInformation
+    windows : sequence of WindowDesign
+    Tstar, K : ndarray
+        Where the information is evaluated (the estimate).
+
+    Returns
+    -------
+    Tstar_bound, K_bound : ndarray
+        The bound's standard deviations, shaped like ``Tstar`` and ``K`` (zero outside the
+        structure).
+    count : int
+        Pieces used.
+
+    Raises
+    ------
+    ValueError
+        When the pieces do not identify every schedule parameter.
+    """
+    parts = [piece for window in windows for piece in pieces(window)]
+    covariance = design_bound([information(piece, Tstar, K) for piece in parts])
+    gs = information.gs
+    Tstar_bound, K_bound = gs.arrays(
+        dict(zip(gs.parameters, np.sqrt(np.clip(np.diag(covariance), 0.0, None)), strict=True))
+    )
+    return Tstar_bound, K_bound, len(parts)
+
+
+__all__ = [
+    "PIECE_NODES",
+    "ClosedLoopInformation",
+    "WindowDesign",
+    "design_bound",
+    "full_design_bound",
+    "pieces",
+]

@@ -19,7 +19,9 @@ JOINT_NAMES = tuple(c.removesuffix("_torque") for c in TORQUE_COLUMNS)
 @dataclass
 class ControllerEstimate:
     """One controller ``T*``, ``K`` with optional standard errors and the square roots of the
-    Cramer-Rao bound's diagonal (the best standard deviations the design allows)."""
+    Cramer-Rao bound's diagonal (the best standard deviations the design allows): the
+    states-known bound (``*_bound``) and the whole design's (``*_bound_full``, states
+    unknown)."""
 
     Tstar: np.ndarray
     K: np.ndarray
@@ -27,6 +29,8 @@ class ControllerEstimate:
     K_se: np.ndarray | None = None
     Tstar_bound: np.ndarray | None = None
     K_bound: np.ndarray | None = None
+    Tstar_bound_full: np.ndarray | None = None
+    K_bound_full: np.ndarray | None = None
 
 
 def true_controller(
@@ -105,15 +109,25 @@ def estimate_metrics(
             "fraction_within_3se",
             "K_relative_bound",
             "Tstar_relative_bound",
+            "K_relative_bound_states_known",
+            "Tstar_relative_bound_states_known",
+            "K_relative_bound_full_design",
+            "Tstar_relative_bound_full_design",
         )
     )
-    if collocation.K_bound is not None and collocation.Tstar_bound is not None:
-        from colloc.identify.gait.controller_fit import relative_spread
+    from colloc.identify.gait.controller_fit import relative_spread
 
-        # relative to the truth when there is one, else to the estimate
-        reference = truth or collocation
-        out["K_relative_bound"] = relative_spread(collocation.K_bound, reference.K)
-        out["Tstar_relative_bound"] = relative_spread(collocation.Tstar_bound, reference.Tstar)
+    # relative to the truth when there is one, else to the estimate
+    reference = truth or collocation
+    for suffix, Tb, Kb in (
+        ("_states_known", collocation.Tstar_bound, collocation.K_bound),
+        ("_full_design", collocation.Tstar_bound_full, collocation.K_bound_full),
+    ):
+        if Kb is not None and Tb is not None:
+            out[f"K_relative_bound{suffix}"] = relative_spread(Kb, reference.K)
+            out[f"Tstar_relative_bound{suffix}"] = relative_spread(Tb, reference.Tstar)
+    out["K_relative_bound"] = out["K_relative_bound_states_known"]
+    out["Tstar_relative_bound"] = out["Tstar_relative_bound_states_known"]
     if truth is None:
         return out
     for prefix, est in (("", collocation), ("direct_", direct)):

@@ -39,6 +39,15 @@ DEFINITIONS: dict[str, str] = {
         "(the fed-back states known) goes below"
     ),
     "Tstar_relative_bound": "the same for T*",
+    "K_relative_bound_states_known": "K_relative_bound, by its name",
+    "Tstar_relative_bound_states_known": "Tstar_relative_bound, by its name",
+    "K_relative_bound_full_design": (
+        "the same from the whole design's bound, the states unknown: the closed loop's maximum "
+        "a posteriori problem (tracked signals at their noise, the motor noise a penalised "
+        "residual) with the states eliminated, summed over pieces of the smoothed windows "
+        "(--design-bound full; colloc.identify.gait.design_bound)"
+    ),
+    "Tstar_relative_bound_full_design": "the same for T*",
     "fraction_within_3se": (
         "share of the T* and allowed K entries whose error against the truth is within 3 of "
         "their standard errors (about 0.99 for honest Gaussian errors)"

@@ -40,6 +40,10 @@ STRUCTURES = ("full", "joint-isolated")
 #: kinematics and dynamics); ``auto``: markers and plates when the trial has markers. The
 #: sources are colloc.identify.gait.windows.SOURCES.
 SMOOTH_SOURCES = ("auto", "markers", "markers-only", "angles")
+#: ``--design-bound``: which Cramer-Rao bound the run computes beside the schedule's own
+#: (states known): ``full``, the whole design's with the states unknown
+#: (colloc.identify.gait.design_bound; method smoother on a trial's angles).
+DESIGN_BOUNDS = ("states-known", "full")
 #: ``--noise-levels``: what the marker smoother's noise levels may replace.
 NOISE_LEVEL_NAMES = ("marker", "force", "moment", "torque_prior")
 #: Schedule points when neither ``points`` nor the trial's metadata give them.
@@ -112,6 +116,9 @@ class GaitIdentifySettings:
         Smoothing from markers: noise levels replacing the trial's estimates, as
         ``(name, value)`` pairs with names from :data:`NOISE_LEVEL_NAMES` (``marker`` [m],
         ``force`` [N], ``moment`` [N m], ``torque_prior`` [N m]); empty: the trial's.
+    design_bound : str
+        One of :data:`DESIGN_BOUNDS`: ``full`` also computes the whole design's bound, the
+        states unknown (method ``smoother`` on a trial's angles, trunk and torques).
     truth : Path or None
         A trial whose metadata records the controller that made this walk (the simulated
         trial a lab export was written from): its controller is taken as this trial's, for
@@ -149,6 +156,7 @@ class GaitIdentifySettings:
     truth: Path | None = None
     smooth_from: str = "auto"
     noise_levels: tuple[tuple[str, float], ...] = ()
+    design_bound: str = "states-known"
 
     def problems(self, *, require_trial: bool = True) -> list[str]:
         """Every problem with the settings (empty when valid); the trial is not read.
@@ -176,6 +184,7 @@ class GaitIdentifySettings:
             ("guess", GUESSES),
             ("method", METHODS),
             ("smooth_from", SMOOTH_SOURCES),
+            ("design_bound", DESIGN_BOUNDS),
         ):
             if getattr(self, name) not in choices:
                 out.append(

@@ -124,10 +124,19 @@ def smoother_fit(c: FitContext) -> Fit:
     if isinstance(motor, dict) and float(motor.get("std", 0.0) or 0.0) == 0.0:
         c.notes.append(ZERO_MOTOR_NOISE_NOTE)
     c.lap("controller")
+    full = _full_design_bound(c, results, source, est) if settings.design_bound == "full" else None
     lasts = [r.stages[-1] for r in results]
     failed = [last for last in lasts if not last.success]
     return Fit(
-        ControllerEstimate(est.Tstar, est.K, est.Tstar_se, est.K_se, est.Tstar_bound, est.K_bound),
+        ControllerEstimate(
+            est.Tstar,
+            est.K,
+            est.Tstar_se,
+            est.K_se,
+            est.Tstar_bound,
+            est.K_bound,
+            *(full or (None, None)),
+        ),
         {
             "status": (failed or lasts)[-1].status,  # a window's failure, else the last's
             # a failed continuation step is halved, not fatal
@@ -142,6 +151,63 @@ def smoother_fit(c: FitContext) -> Fit:
         _summed_size([r.size for r in results], gs),
         np.concatenate([r.states[:, 3:9] for r in results]),
     )
+
+
+def _full_design_bound(
+    c: FitContext, results: list[Any], source: str, est: Any
+) -> tuple[np.ndarray, np.ndarray] | None:
+    """The whole design's bound at the estimate (``--design-bound full``), or None with the
+    reason in the notes."""
+    from colloc.identify.gait.design_bound import (
+        ClosedLoopInformation,
+        WindowDesign,
+        full_design_bound,
+    )
+    from colloc.identify.gait.read import tracked_columns
+    from colloc.identify.gait.trial_noise import trial_noise_std
+
+    data, meta = c.data, c.data.trial.metadata
+    if SOURCES[source].lab_markers:
+        c.notes.append(
+            "design bound: the whole design's bound is built for a trial's angles, trunk and "
+            "torques, not yet for a lab's markers and plates: only the states-known bound"
+        )
+        return None
+    motor = meta.get("motor_noise")
+    std = float(motor.get("std", 0.0) or 0.0) if isinstance(motor, dict) else 0.0
+    if std <= 0.0:
+        c.notes.append(
+            "design bound: the trial records no motor noise, the closed loop's residual the "
+            "whole design's bound needs: only the states-known bound"
+        )
+        return None
+    c.say("bound", "the whole design's information, states unknown, piece by piece")
+    noise = {col: trial_noise_std(meta, col) for col in tracked_columns(c.settings.track)}
+    belt = data.window.signals["belt_speed"].to_numpy(dtype=float)
+    windows = [
+        WindowDesign(
+            r.times,
+            r.states,
+            r.torques,
+            np.interp(r.times, data.window.time, belt),
+            data.phase.between(r.times, data.window.time, data.window.phase),
+        )
+        for r in results
+    ]
+    try:
+        Tstar_bound, K_bound, count = full_design_bound(
+            ClosedLoopInformation(c.dyn, c.gs, noise, std), windows, est.Tstar, est.K
+        )
+    except ValueError as error:
+        c.notes.append(f"design bound: the whole design's bound failed: {error}")
+        return None
+    c.lap("bound")
+    c.notes.append(
+        f"design bound: the whole design's, states unknown (the closed loop's maximum a "
+        f"posteriori problem at the estimate, motor noise {std:g} N m, {count} pieces of the "
+        "smoothed windows, colloc.identify.gait.design_bound)"
+    )
+    return Tstar_bound, K_bound
 
 
 def _signals(
