@@ -254,6 +254,7 @@ def full_design_bound(
     windows: Sequence[WindowDesign],
     Tstar: np.ndarray,
     K: np.ndarray,
+    nodes: int = PIECE_NODES,
 ) -> tuple[np.ndarray, np.ndarray, int]:
     """The whole design's bound of ``T*`` and ``K``: each window cut into :func:`pieces`, their
     informations summed.
@@ -264,6 +265,8 @@ def full_design_bound(
     windows : sequence of WindowDesign
     Tstar, K : ndarray
         Where the information is evaluated (the estimate).
+    nodes : int
+        Nodes per piece.
 
     Returns
     -------
@@ -278,7 +281,7 @@ def full_design_bound(
     ValueError
         When the pieces do not identify every schedule parameter.
     """
-    parts = [piece for window in windows for piece in pieces(window)]
+    parts = [piece for window in windows for piece in pieces(window, nodes)]
     covariance = design_bound([information(piece, Tstar, K) for piece in parts])
     gs = information.gs
     Tstar_bound, K_bound = gs.arrays(

@@ -1,0 +1,128 @@
+"""The whole design's Cramer-Rao bound of a gait controller beside the states-known one.
+
+On a stretch of a synthetic trial with motor noise (its true controller in the metadata),
+evaluated at the trial's own noisy states and the true schedule:
+
+* **states known**: the schedule's least squares ``T = T*(phi) - K(phi) s + e`` on the
+  recorded states, ``e`` the torque measurement and motor noise combined
+  (:func:`colloc.identify.gait.controller_fit.fit_schedule_with_errors`);
+* **whole design**: the closed loop's maximum a posteriori problem, the states unknown, the
+  trial's angles, trunk pose and torques tracked at their noise and the motor noise a
+  penalised residual, the states eliminated piece by piece
+  (:mod:`colloc.identify.gait.design_bound`).
+
+::
+
+    python benchmarks/gait_design_bound.py --trial DIR --start 3 --duration 20 \
+        [--piece-nodes 50] [--out FILE]
+
+Prints and appends to ``benchmarks/results/gait_design_bound.json``: both relative bounds of
+``K`` and ``T*`` (``sqrt(sum var) / |truth|``), their ratio, the pieces, the wall time of the
+whole-design bound and the peak memory.
+"""
+
+from __future__ import annotations
+
+import argparse
+import resource
+import time
+from pathlib import Path
+
+import numpy as np
+from results_file import append_record
+
+from colloc.control.gain_scheduled import GainScheduled
+from colloc.data.columns import TORQUE_COLUMNS
+from colloc.data.split import take_rows
+from colloc.data.trial import read_trial
+from colloc.identify.gait.controller_fit import fit_schedule_with_errors, relative_spread
+from colloc.identify.gait.design_bound import (
+    PIECE_NODES,
+    ClosedLoopInformation,
+    WindowDesign,
+    full_design_bound,
+)
+from colloc.identify.gait.phase_law import phase_law
+from colloc.identify.gait.read import state_names, subject, tracked_columns
+from colloc.identify.gait.settings import DEFAULT_TRACK
+from colloc.identify.gait.trial_noise import torque_equation_noise, trial_noise_std
+from colloc.identify.gait.windows import gait_dynamics
+
+RESULTS = Path(__file__).parent / "results" / "gait_design_bound.json"
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--trial", type=Path, required=True)
+    parser.add_argument("--start", type=float, default=0.0, help="s from the record's start")
+    parser.add_argument("--duration", type=float, required=True, help="s of record")
+    parser.add_argument("--piece-nodes", type=int, default=PIECE_NODES)
+    parser.add_argument("--out", type=Path, default=RESULTS)
+    args = parser.parse_args()
+
+    trial = read_trial(args.trial)
+    meta = trial.metadata
+    motor = float((meta.get("motor_noise") or {}).get("std", 0.0) or 0.0)
+    if motor <= 0:
+        raise SystemExit("the trial records no motor noise: the whole design's bound needs it")
+    controller = meta["controller"]
+    Tstar, K = np.asarray(controller["Tstar"], float), np.asarray(controller["K"], float)
+    dyn = gait_dynamics(*subject(meta))
+    names = list(state_names())
+    feedback = [names.index(n) for n in controller["feedback"]]
+    gs = GainScheduled(
+        Tstar.shape[0],
+        [dyn.model.states[i] for i in feedback],
+        dyn.gait.torques,
+        structure=np.asarray(controller["mask"], dtype=bool),
+    )
+    law = phase_law("causal", trial)
+    rows = np.flatnonzero((trial.time >= args.start) & (trial.time < args.start + args.duration))
+    part = take_rows(trial, rows)
+    signals, t = part.signals, part.time
+    states = signals[names].to_numpy(dtype=float)
+    torques = signals[list(TORQUE_COLUMNS)].to_numpy(dtype=float)
+    phase = law.at(t, signals)
+
+    start = time.perf_counter()
+    noise = {c: trial_noise_std(meta, c) for c in tracked_columns(DEFAULT_TRACK)}
+    window = WindowDesign(t, states, torques, signals["belt_speed"].to_numpy(float), phase)
+    information = ClosedLoopInformation(dyn, gs, noise, motor)
+    Tb_full, Kb_full, count = full_design_bound(information, [window], Tstar, K, args.piece_nodes)
+    seconds = time.perf_counter() - start
+
+    strides = np.searchsorted(trial.right_heel_strikes, t)
+    known = fit_schedule_with_errors(
+        gs,
+        phase,
+        states[:, feedback],
+        torques,
+        strides,
+        np.full(len(TORQUE_COLUMNS), torque_equation_noise(meta)),
+    )
+    record = {
+        "trial": str(args.trial),
+        "start": args.start,
+        "duration": args.duration,
+        "samples": int(t.size),
+        "pieces": count,
+        "piece_nodes": args.piece_nodes,
+        "motor_noise": motor,
+        "K_relative_bound_states_known": relative_spread(known.K_bound, K),
+        "Tstar_relative_bound_states_known": relative_spread(known.Tstar_bound, Tstar),
+        "K_relative_bound_full_design": relative_spread(Kb_full, K),
+        "Tstar_relative_bound_full_design": relative_spread(Tb_full, Tstar),
+        "full_design_seconds": seconds,
+        "peak_rss_mb": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024,
+    }
+    record["K_ratio"] = (
+        record["K_relative_bound_full_design"] / record["K_relative_bound_states_known"]
+    )
+    record["Tstar_ratio"] = (
+        record["Tstar_relative_bound_full_design"] / record["Tstar_relative_bound_states_known"]
+    )
+    append_record(args.out, record)
+
+
+if __name__ == "__main__":
+    main()
