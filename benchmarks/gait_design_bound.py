@@ -36,12 +36,7 @@ from colloc.data.columns import TORQUE_COLUMNS
 from colloc.data.split import take_rows
 from colloc.data.trial import read_trial
 from colloc.identify.gait.controller_fit import fit_schedule_with_errors, relative_spread
-from colloc.identify.gait.design_bound import (
-    PIECE_NODES,
-    ClosedLoopInformation,
-    WindowDesign,
-    full_design_bound,
-)
+from colloc.identify.gait.design_bound import PIECE_NODES, BoundJob, WindowDesign, full_design_bound
 from colloc.identify.gait.phase_law import phase_law
 from colloc.identify.gait.read import state_names, subject, tracked_columns
 from colloc.identify.gait.settings import DEFAULT_TRACK
@@ -87,8 +82,19 @@ def main() -> None:
     start = time.perf_counter()
     noise = {c: trial_noise_std(meta, c) for c in tracked_columns(DEFAULT_TRACK)}
     window = WindowDesign(t, states, torques, signals["belt_speed"].to_numpy(float), phase)
-    information = ClosedLoopInformation(dyn, gs, noise, motor)
-    Tb_full, Kb_full, count = full_design_bound(information, [window], Tstar, K, args.piece_nodes)
+    job = BoundJob(
+        subject(meta),
+        Tstar.shape[0],
+        tuple(feedback),
+        np.asarray(controller["mask"], dtype=bool),
+        tuple(noise.items()),
+        motor,
+        window,
+        Tstar,
+        K,
+        args.piece_nodes,
+    )
+    Tb_full, Kb_full, count = full_design_bound(gs, [job])
     seconds = time.perf_counter() - start
 
     strides = np.searchsorted(trial.right_heel_strikes, t)

@@ -4,6 +4,7 @@ must reduce to the schedule's regression with the motor noise as its only error.
 
 from __future__ import annotations
 
+import pickle
 from pathlib import Path
 
 import numpy as np
@@ -13,7 +14,15 @@ from colloc.control.gain_scheduled import GainScheduled
 from colloc.control.output_feedback import schedule_weights
 from colloc.data.columns import JOINT_ANGLE_COLUMNS, TORQUE_COLUMNS, TRUNK_COLUMNS
 from colloc.data.trial import read_trial
-from colloc.identify.gait.design_bound import ClosedLoopInformation, WindowDesign, design_bound
+from colloc.identify.gait.design_bound import (
+    BoundJob,
+    ClosedLoopInformation,
+    WindowDesign,
+    design_bound,
+    full_design_bound,
+    job_information,
+    pieces,
+)
 from colloc.identify.gait.phase_law import phase_law
 from colloc.identify.gait.read import state_names
 from colloc.identify.gait.windows import gait_dynamics
@@ -44,6 +53,30 @@ def setting():
         phase_law("causal", trial).at(t, signals),
     )
     return dyn, gs, window, Tstar, K, feedback
+
+
+def test_a_windows_job_travels_and_sums_its_pieces(setting):
+    dyn, gs, window, Tstar, K, feedback = setting
+    noise = (
+        dict.fromkeys(JOINT_ANGLE_COLUMNS, 0.004)
+        | dict.fromkeys(TRUNK_COLUMNS, 0.001)
+        | dict.fromkeys(TORQUE_COLUMNS, 1.0)
+    )
+    job = BoundJob((75.0, 1.8), gs.num_points, tuple(feedback), gs.mask,
+                   tuple(noise.items()), MOTOR, window, Tstar, K, nodes=20)  # fmt: skip
+    travelled = pickle.loads(pickle.dumps(job))  # what a Dask worker receives
+    information = ClosedLoopInformation(dyn, gs, noise, MOTOR)
+    direct = sum(information(piece, Tstar, K) for piece in pieces(window, 20))
+    np.testing.assert_allclose(job_information(travelled), direct, rtol=1e-9, atol=1e-9)
+    calls = []
+
+    def elsewhere(function, items):
+        calls.append(len(items))
+        return [function(pickle.loads(pickle.dumps(item))) for item in items]
+
+    with pytest.raises(ValueError, match="singular"):  # 0.4 s cannot reach every point
+        full_design_bound(gs, [job], elsewhere)
+    assert calls == [1]
 
 
 def regression_information(gs, window, feedback, motor):

@@ -19,7 +19,8 @@ whole record.
 
 from __future__ import annotations
 
-from collections.abc import Mapping, Sequence
+import functools
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any
 
@@ -249,29 +250,116 @@ def pieces(window: WindowDesign, nodes: int = PIECE_NODES) -> list[WindowDesign]
     return out
 
 
-def full_design_bound(
-    information: ClosedLoopInformation,
-    windows: Sequence[WindowDesign],
-    Tstar: np.ndarray,
-    K: np.ndarray,
-    nodes: int = PIECE_NODES,
-) -> tuple[np.ndarray, np.ndarray, int]:
-    """The whole design's bound of ``T*`` and ``K``: each window cut into :func:`pieces`, their
-    informations summed.
+@dataclass(frozen=True)
+class BoundJob:
+    """One window's share of the whole design's information: what a worker needs and
+    nothing that cannot travel (the model and problem are built once per worker process).
+
+    Attributes
+    ----------
+    body : (float, float)
+        Body mass [kg] and height [m].
+    points : int
+        Schedule points ``P``.
+    feedback : tuple of int
+        The fed-back states' indices in the model's states.
+    mask : ndarray of bool, shape (6, n_s)
+        The gains' structure.
+    noise : tuple of (str, float)
+        Tracked column -> noise standard deviation.
+    motor_noise : float
+        [N m] per sample.
+    window : WindowDesign
+    Tstar, K : ndarray
+        Where the information is evaluated.
+    nodes : int
+        Nodes per piece.
+    """
+
+    body: tuple[float, float]
+    points: int
+    feedback: tuple[int, ...]
+    mask: np.ndarray
+    noise: tuple[tuple[str, float], ...]
+    motor_noise: float
+    window: WindowDesign
+    Tstar: np.ndarray
+    K: np.ndarray
+    nodes: int = PIECE_NODES
+
+
+@functools.lru_cache(maxsize=2)
+def _information(
+    body: tuple[float, float],
+    points: int,
+    feedback: tuple[int, ...],
+    mask: bytes,
+    shape: tuple[int, int],
+    noise: tuple[tuple[str, float], ...],
+    motor_noise: float,
+) -> ClosedLoopInformation:
+    from colloc.control.gain_scheduled import GainScheduled
+    from colloc.identify.gait.windows import gait_dynamics
+
+    dyn = gait_dynamics(*body)
+    structure = np.frombuffer(mask, dtype=bool).reshape(shape)
+    gs = GainScheduled(
+        points, [dyn.model.states[i] for i in feedback], dyn.gait.torques, structure=structure
+    )
+    return ClosedLoopInformation(dyn, gs, dict(noise), motor_noise)
+
+
+def job_information(job: BoundJob) -> np.ndarray:
+    """The information of one window's pieces, summed (run here or on a worker).
 
     Parameters
     ----------
-    information : ClosedLoopInformation
-    windows : sequence of WindowDesign
-    Tstar, K : ndarray
-        Where the information is evaluated (the estimate).
-    nodes : int
-        Nodes per piece.
+    job : BoundJob
+
+    Returns
+    -------
+    ndarray, shape (n_p, n_p)
+        In the order of the schedule's parameters.
+    """
+    mask = np.ascontiguousarray(job.mask, dtype=bool)
+    information = _information(
+        job.body,
+        job.points,
+        job.feedback,
+        mask.tobytes(),
+        mask.shape,
+        job.noise,
+        job.motor_noise,
+    )
+    n = len(information.gs.parameters)
+    total = np.zeros((n, n))
+    for piece in pieces(job.window, job.nodes):
+        total += information(piece, job.Tstar, job.K)
+    return total
+
+
+def full_design_bound(
+    gs: Any,
+    jobs: Sequence[BoundJob],
+    map_jobs: Callable[[Callable[[Any], Any], list[Any]], list[Any]] | None = None,
+) -> tuple[np.ndarray, np.ndarray, int]:
+    """The whole design's bound of ``T*`` and ``K``: each window's pieces' informations,
+    summed over the windows.
+
+    Parameters
+    ----------
+    gs : GainScheduled
+        The schedule, built as the jobs describe it.
+    jobs : sequence of BoundJob
+        One per window.
+    map_jobs : callable, optional
+        ``map_jobs(function, jobs) -> results`` in order (e.g. a Dask client's); default
+        here, one after another.
 
     Returns
     -------
     Tstar_bound, K_bound : ndarray
-        The bound's standard deviations, shaped like ``Tstar`` and ``K`` (zero outside the
+        The bound's standard deviations, shaped like ``T*`` and ``K`` (zero outside the
         structure).
     count : int
         Pieces used.
@@ -281,17 +369,19 @@ def full_design_bound(
     ValueError
         When the pieces do not identify every schedule parameter.
     """
-    parts = [piece for window in windows for piece in pieces(window, nodes)]
-    covariance = design_bound([information(piece, Tstar, K) for piece in parts])
-    gs = information.gs
+    run = map_jobs if map_jobs is not None else (lambda f, items: [f(x) for x in items])
+    covariance = design_bound(run(job_information, list(jobs)))
     Tstar_bound, K_bound = gs.arrays(
         dict(zip(gs.parameters, np.sqrt(np.clip(np.diag(covariance), 0.0, None)), strict=True))
     )
-    return Tstar_bound, K_bound, len(parts)
+    count = sum(len(pieces(job.window, job.nodes)) for job in jobs)
+    return Tstar_bound, K_bound, count
 
 
 __all__ = [
     "PIECE_NODES",
+    "BoundJob",
+    "job_information",
     "ClosedLoopInformation",
     "WindowDesign",
     "design_bound",

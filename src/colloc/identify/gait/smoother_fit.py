@@ -158,12 +158,8 @@ def _full_design_bound(
 ) -> tuple[np.ndarray, np.ndarray] | None:
     """The whole design's bound at the estimate (``--design-bound full``), or None with the
     reason in the notes."""
-    from colloc.identify.gait.design_bound import (
-        ClosedLoopInformation,
-        WindowDesign,
-        full_design_bound,
-    )
-    from colloc.identify.gait.read import tracked_columns
+    from colloc.identify.gait.design_bound import BoundJob, WindowDesign, full_design_bound
+    from colloc.identify.gait.read import subject, tracked_columns
     from colloc.identify.gait.trial_noise import trial_noise_std
 
     data, meta = c.data, c.data.trial.metadata
@@ -181,23 +177,33 @@ def _full_design_bound(
             "whole design's bound needs: only the states-known bound"
         )
         return None
-    c.say("bound", "the whole design's information, states unknown, piece by piece")
-    noise = {col: trial_noise_std(meta, col) for col in tracked_columns(c.settings.track)}
+    where = "" if c.map_windows is None else " on the workers"
+    c.say("bound", f"the whole design's information, states unknown, piece by piece{where}")
+    noise = tuple((col, trial_noise_std(meta, col)) for col in tracked_columns(c.settings.track))
     belt = data.window.signals["belt_speed"].to_numpy(dtype=float)
-    windows = [
-        WindowDesign(
-            r.times,
-            r.states,
-            r.torques,
-            np.interp(r.times, data.window.time, belt),
-            data.phase.between(r.times, data.window.time, data.window.phase),
+    index = {x: i for i, x in enumerate(c.dyn.model.states)}
+    jobs = [
+        BoundJob(
+            subject(meta),
+            c.gs.num_points,
+            tuple(index[x] for x in c.gs.feedback),
+            c.gs.mask,
+            noise,
+            std,
+            WindowDesign(
+                r.times,
+                r.states,
+                r.torques,
+                np.interp(r.times, data.window.time, belt),
+                data.phase.between(r.times, data.window.time, data.window.phase),
+            ),
+            est.Tstar,
+            est.K,
         )
         for r in results
     ]
     try:
-        Tstar_bound, K_bound, count = full_design_bound(
-            ClosedLoopInformation(c.dyn, c.gs, noise, std), windows, est.Tstar, est.K
-        )
+        Tstar_bound, K_bound, count = full_design_bound(c.gs, jobs, c.map_windows)
     except ValueError as error:
         c.notes.append(f"design bound: the whole design's bound failed: {error}")
         return None
