@@ -6,6 +6,7 @@ import scipy.linalg
 
 from colloc.control.lqr import lqr
 from colloc.control.periodic_lqr import (
+    RiccatiBreakdownError,
     discrete_monodromy,
     monodromy,
     periodic_lqr,
@@ -164,6 +165,19 @@ def test_sampled_lqr_stabilises_mathieu_like_the_ode_version():
         sampled_periodic_lqr(A, np.zeros_like(B), t, Q, R, max_cycles=3)
     with pytest.raises(ValueError, match=r"discrete_monodromy: A: expected shape"):
         discrete_monodromy(A[:, :1], t)
+
+
+def test_a_sampled_recursion_that_overflows_stops_at_once_with_its_place():
+    """A fast unstable mode no input reaches: S grows by e^(2 * 400) a period and overflows in
+    the first; the recursion says where instead of running its 500 periods on infinities
+    (or numpy's bare 'Singular matrix')."""
+    t = np.linspace(0.0, 1.0, 21)
+    A = np.repeat(np.diag([400.0, -1.0])[None], t.size, 0)
+    B = np.repeat(np.array([[0.0], [1.0]])[None], t.size, 0)
+    with pytest.raises(RiccatiBreakdownError, match=r"broke down at sample \d+ in period 1 "
+                       r"\(S overflowed\); check that \(A, B\) is stabilisable"):  # fmt: skip
+        sampled_periodic_lqr(A, B, t, np.eye(2), np.eye(1))
+    assert issubclass(RiccatiBreakdownError, ValueError)  # callers that catch ValueError
 
 
 def test_sampled_periodic_lqr_handles_thousands_of_samples():

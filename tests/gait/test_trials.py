@@ -871,6 +871,55 @@ def test_a_cycle_that_does_not_settle_is_refined_and_the_trial_says_so(monkeypat
     assert summary["wall_times"]["cycle"] > 0
 
 
+def test_a_settling_design_that_breaks_down_refines_the_cycle(monkeypatch, tmp_path):
+    """A 60-node cycle whose settling LQR's Riccati recursion overflowed (measured on a
+    1.25 m/s cycle with a swing clearance) stopped the whole command with numpy's bare
+    'Singular matrix'; it is now one node count that failed, and the finer cycle is tried."""
+    import colloc.gait.workflow as workflow
+    from colloc.control.periodic_lqr import RiccatiBreakdownError
+    from colloc.gait.settings import GaitSimulationSettings
+    from colloc.gait.walking_cycle import WalkingCycle
+
+    calls: list = []
+    fake_pipeline(monkeypatch, calls)
+    fake_design = workflow.design_controller
+
+    def breaks_when_coarse(cycle, num_points, **kwargs):
+        if cycle.stats["nodes"] < 100:
+            raise RiccatiBreakdownError("sampled_periodic_lqr: ... (S overflowed)")
+        return fake_design(cycle, num_points, **kwargs)
+
+    def cycle_of(speed, **kwargs):
+        calls.append(("cycle", speed, kwargs))
+        n = kwargs["num_nodes"]
+        times = np.linspace(0.0, PERIOD, n)
+        return WalkingCycle(
+            times, np.zeros((n, 18)), np.zeros((n, 6)), np.zeros((n, 8)), speed, PERIOD,
+            stats={"nodes": n},
+        )  # fmt: skip
+
+    monkeypatch.setattr(workflow, "design_controller", breaks_when_coarse)
+    monkeypatch.setattr(workflow, "find_walking_cycle", cycle_of)
+    out = tmp_path / "out"
+    settings = GaitSimulationSettings(duration=3.0, out=out, perturbed=False, animation_seconds=0.5)
+    result = workflow.simulate_trial(settings)
+    assert [c[2]["num_nodes"] for c in calls if c[0] == "cycle"] == [60, 100]
+    assert result.trial.metadata["cycle_nodes"] == 100
+    assert any(
+        "60 nodes: the settling controller's design: sampled_periodic_lqr" in n
+        for n in result.summary["notes"]
+    )
+    # every node count breaking down: the command's error names each
+    monkeypatch.setattr(
+        workflow,
+        "design_controller",
+        lambda *a, **k: (_ for _ in ()).throw(RiccatiBreakdownError("overflowed")),
+    )
+    with pytest.raises(RiccatiBreakdownError, match="60 nodes: .*100 nodes: .*160 nodes: "):
+        workflow.simulate_trial(GaitSimulationSettings(duration=3.0, out=tmp_path / "o2"))
+    assert not (tmp_path / "o2" / "summary.json").exists()
+
+
 def test_foot_ground_reactions_sum_each_foot_and_weigh_its_centre_of_pressure():
     from colloc.gait.strikes import foot_ground_reactions
 

@@ -28,6 +28,7 @@ import scipy.interpolate
 import scipy.linalg
 
 __all__ = [
+    "RiccatiBreakdownError",
     "PeriodicLQRResult",
     "discrete_monodromy",
     "monodromy",
@@ -218,6 +219,12 @@ def monodromy(A: Any, times: Any, *, rtol: float = 1e-8) -> np.ndarray:
     return sol.y[:, -1].reshape(n, n)
 
 
+class RiccatiBreakdownError(ValueError):
+    """The periodic Riccati recursion did not converge or broke down (``S`` overflowed, or
+    ``R h + Gamma^T S Gamma`` became singular): the sampled system is not stabilisable as
+    given."""
+
+
 def sampled_periodic_lqr(
     A: Any,
     B: Any,
@@ -239,7 +246,9 @@ def sampled_periodic_lqr(
 
     Parameters and result as in :func:`periodic_lqr` (``K`` is the gain on each interval's
     left sample; ``K[-1] = K[0]``). The Floquet multipliers are those of the discretised
-    closed loop (:func:`discrete_monodromy` of ``A - B K``).
+    closed loop (:func:`discrete_monodromy` of ``A - B K``). Raises
+    :class:`RiccatiBreakdownError` (a ``ValueError``) when the recursion does not converge
+    or breaks down.
     """
     a, b, t, q, r = _validated(A, B, times, Q, R, tol, max_cycles)
     phis, gammas, hs = _discretised(a, b, t)
@@ -253,15 +262,20 @@ def sampled_periodic_lqr(
         for k in range(num - 1, -1, -1):
             phi, gam, h = phis[k], gammas[k], hs[k]
             gs = gam.T @ s_next
-            K[k] = np.linalg.solve(r * h + gs @ gam, gs @ phi)
+            try:
+                K[k] = np.linalg.solve(r * h + gs @ gam, gs @ phi)
+            except np.linalg.LinAlgError as exc:
+                raise _breakdown(k, periods, "R h + Gamma^T S Gamma became singular") from exc
             s_next = _symmetric(q * h + phi.T @ s_next @ (phi - gam @ K[k]))
+            if not np.all(np.isfinite(s_next)):
+                raise _breakdown(k, periods, "S overflowed")
             S[k] = s_next
         change = np.max(np.abs(s_next - previous)) / max(np.max(np.abs(s_next)), 1e-300)
         previous = s_next
         if change < tol:
             break
     else:
-        raise ValueError(
+        raise RiccatiBreakdownError(
             f"sampled_periodic_lqr: S(t0) did not converge within max_cycles={max_cycles} "
             f"periods (last relative change {change:.3g}); check that (A, B) is stabilisable"
         )
@@ -273,6 +287,13 @@ def sampled_periodic_lqr(
     mu = np.linalg.eigvals(monodromy)
     mu = mu[np.argsort(-np.abs(mu), kind="stable")]
     return PeriodicLQRResult(K=K, S=S, floquet_multipliers=mu, times=t, num_periods=periods)
+
+
+def _breakdown(sample: int, period: int, what: str) -> RiccatiBreakdownError:
+    return RiccatiBreakdownError(
+        f"sampled_periodic_lqr: the Riccati recursion broke down at sample {sample} in period "
+        f"{period} ({what}); check that (A, B) is stabilisable"
+    )
 
 
 def discrete_monodromy(A: Any, times: Any) -> np.ndarray:

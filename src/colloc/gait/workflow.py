@@ -39,6 +39,7 @@ from typing import Any
 
 import numpy as np
 
+from colloc.control.periodic_lqr import RiccatiBreakdownError
 from colloc.gait.closed_loop import simulate_walking
 from colloc.gait.cycle import find_walking_cycle
 from colloc.gait.design import FEEDBACK_SETS, REGULATED, design_controller
@@ -230,29 +231,38 @@ def _settled_cycle(
     tries = AUTO_NUM_NODES if settings.num_nodes is None else (settings.num_nodes,)
     failures: list[str] = []
     schedule_fell = False
+    last: Exception | None = None
     for nodes in tries:
         with clock.step("cycle", f"periodic walking cycle at {settings.speed} m/s, {nodes} nodes"):
             cycle = find_walking_cycle(
                 settings.speed, num_nodes=nodes, params=params, cache=settings.cache
             )
         with clock.step("settle", "the stride the continuous model walks, full-state feedback"):
-            # Every state but the hip's place on the treadmill. With it (Q weight 0.5 m) the
-            # default 1.2 m/s stride had not settled after 16 strides (multiplier 0.81), with
-            # a stronger weight the walker fell; without it the stride drifts 4.2 cm a stride.
-            _, settle_tstar, settle_k, settle_info = design_controller(
-                cycle,
-                SETTLE_POINTS,
-                dynamics=dynamics,
-                num_samples=DESIGN_SAMPLES,
-                feedback=REGULATED,
-                fit_tstar=False,
-            )
+            try:
+                # Every state but the hip's place on the treadmill. With it (Q weight 0.5 m)
+                # the default 1.2 m/s stride had not settled after 16 strides (multiplier
+                # 0.81), with a stronger weight the walker fell; without it the stride drifts
+                # 4.2 cm a stride.
+                _, settle_tstar, settle_k, settle_info = design_controller(
+                    cycle,
+                    SETTLE_POINTS,
+                    dynamics=dynamics,
+                    num_samples=DESIGN_SAMPLES,
+                    feedback=REGULATED,
+                    fit_tstar=False,
+                )
+            except RiccatiBreakdownError as error:
+                # a cycle whose linearisation the sampled LQR cannot stabilise (its Riccati
+                # recursion overflowed on a 60-node 1.25 m/s cycle): try the finer one
+                failures.append(f"{nodes} nodes: the settling controller's design: {error}")
+                last = error
+                continue
             try:
                 check_stable(settle_info.spectral_radius, settings, "all", SETTLE_POINTS)
                 settled = settle_cycle(cycle, settle_tstar, settle_k, REGULATED, dynamics=dynamics)
             except (CycleNotSettledError, UnstableControllerError) as error:
                 failures.append(f"{nodes} nodes: {error}")
-                last: Exception = error
+                last = error
                 continue
         with clock.step("orbit", f"the stride the P = {settings.num_points} controller walks"):
             try:
@@ -295,6 +305,7 @@ def _settled_cycle(
             "(docs/gait.md: synthetic walks lasted 480 s at 0.8-1.6 m/s with 3 N m)"
         )
     # the kind of the last failure (an unstable design stays a ValueError for the CLI)
+    assert last is not None  # every node count tried failed, each setting last
     raise type(last)(f"{'; '.join(failures)}; {hint}") from last
 
 
