@@ -828,20 +828,19 @@ def test_a_cycle_that_does_not_settle_is_reported_with_a_hint(monkeypatch, tmp_p
     assert not out.exists()
 
 
-def test_a_cycle_that_does_not_settle_is_refined_and_the_trial_says_so(monkeypatch, tmp_path):
-    import json
-
-    import colloc.gait.workflow as workflow
+def _refined_to_100_nodes(workflow, calls, out):
+    """A 3 s constant-belt trial made into ``out``, its cycle tried at 60 nodes, then 100."""
     from colloc.gait.settings import GaitSimulationSettings
-    from colloc.gait.settle import CycleNotSettledError
 
-    calls: list = []
-    fake_pipeline(monkeypatch, calls)
+    settings = GaitSimulationSettings(duration=3.0, out=out, perturbed=False, animation_seconds=0.5)
+    result = workflow.simulate_trial(settings)
+    assert [c[2]["num_nodes"] for c in calls if c[0] == "cycle"] == [60, 100]
+    return result
 
-    def falls_when_coarse(cycle, *args, **kwargs):
-        if cycle.stats["nodes"] < 100:
-            raise CycleNotSettledError("settle_cycle: fell at t = 2.18 s")
-        return cycle
+
+def _cycles_by_nodes(calls):
+    """A stand-in for find_walking_cycle whose cycles say their node count (``stats``)."""
+    from colloc.gait.walking_cycle import WalkingCycle
 
     def cycle_of(speed, **kwargs):
         calls.append(("cycle", speed, kwargs))
@@ -852,14 +851,27 @@ def test_a_cycle_that_does_not_settle_is_refined_and_the_trial_says_so(monkeypat
             stats={"nodes": n},
         )  # fmt: skip
 
-    from colloc.gait.walking_cycle import WalkingCycle
+    return cycle_of
+
+
+def test_a_cycle_that_does_not_settle_is_refined_and_the_trial_says_so(monkeypatch, tmp_path):
+    import json
+
+    import colloc.gait.workflow as workflow
+    from colloc.gait.settle import CycleNotSettledError
+
+    calls: list = []
+    fake_pipeline(monkeypatch, calls)
+
+    def falls_when_coarse(cycle, *args, **kwargs):
+        if cycle.stats["nodes"] < 100:
+            raise CycleNotSettledError("settle_cycle: fell at t = 2.18 s")
+        return cycle
 
     monkeypatch.setattr(workflow, "settle_cycle", falls_when_coarse)
-    monkeypatch.setattr(workflow, "find_walking_cycle", cycle_of)
+    monkeypatch.setattr(workflow, "find_walking_cycle", _cycles_by_nodes(calls))
     out = tmp_path / "out"
-    settings = GaitSimulationSettings(duration=3.0, out=out, perturbed=False, animation_seconds=0.5)
-    result = workflow.simulate_trial(settings)
-    assert [c[2]["num_nodes"] for c in calls if c[0] == "cycle"] == [60, 100]
+    result = _refined_to_100_nodes(workflow, calls, out)
     summary = json.loads((out / "summary.json").read_text())
     assert summary["cycle"]["cycle_nodes"] == 100
     assert summary["settings"]["num_nodes"] is None
@@ -878,7 +890,6 @@ def test_a_settling_design_that_breaks_down_refines_the_cycle(monkeypatch, tmp_p
     import colloc.gait.workflow as workflow
     from colloc.control.periodic_lqr import RiccatiBreakdownError
     from colloc.gait.settings import GaitSimulationSettings
-    from colloc.gait.walking_cycle import WalkingCycle
 
     calls: list = []
     fake_pipeline(monkeypatch, calls)
@@ -889,21 +900,10 @@ def test_a_settling_design_that_breaks_down_refines_the_cycle(monkeypatch, tmp_p
             raise RiccatiBreakdownError("sampled_periodic_lqr: ... (S overflowed)")
         return fake_design(cycle, num_points, **kwargs)
 
-    def cycle_of(speed, **kwargs):
-        calls.append(("cycle", speed, kwargs))
-        n = kwargs["num_nodes"]
-        times = np.linspace(0.0, PERIOD, n)
-        return WalkingCycle(
-            times, np.zeros((n, 18)), np.zeros((n, 6)), np.zeros((n, 8)), speed, PERIOD,
-            stats={"nodes": n},
-        )  # fmt: skip
-
     monkeypatch.setattr(workflow, "design_controller", breaks_when_coarse)
-    monkeypatch.setattr(workflow, "find_walking_cycle", cycle_of)
+    monkeypatch.setattr(workflow, "find_walking_cycle", _cycles_by_nodes(calls))
     out = tmp_path / "out"
-    settings = GaitSimulationSettings(duration=3.0, out=out, perturbed=False, animation_seconds=0.5)
-    result = workflow.simulate_trial(settings)
-    assert [c[2]["num_nodes"] for c in calls if c[0] == "cycle"] == [60, 100]
+    result = _refined_to_100_nodes(workflow, calls, out)
     assert result.trial.metadata["cycle_nodes"] == 100
     assert any(
         "60 nodes: the settling controller's design: sampled_periodic_lqr" in n

@@ -205,6 +205,17 @@ def test_bad_arrays_are_named(design):
         fit_schedule_with_errors(gs, phase, feedback, law, blocks, np.ones(3))
 
 
+def _identify_with_full_bound(trial, out):
+    """``gait identify`` with the smoother on 60 % of ``trial``, the whole design's bound
+    asked for; the exit code and the summary."""
+    code = main(
+        ["gait", "identify", str(trial), "--phase", "controller", "--fit-fraction", "0.6"]
+        + ["--no-plots", "--no-store", "--no-simulate", "--json", str(out)]
+        + ["--design-bound", "full"]
+    )
+    return code, json.loads(out.read_text())
+
+
 def test_the_smoother_fit_runs_end_to_end_with_its_bounds_and_errors(tmp_path):
     """``colloc gait identify`` with its default method on the noise-free fixture. Its 7 s fit
     window (696 midpoints for 360 parameters per torque) cannot pin the 2160 parameters from
@@ -212,13 +223,7 @@ def test_the_smoother_fit_runs_end_to_end_with_its_bounds_and_errors(tmp_path):
     error: recovery is measured on long trials by benchmarks/gait_smoother.py. Here: every
     stage converges, the fitted angles follow the record, the schedule predicts the held-out
     torques, and the bound, the errors and their notes are reported."""
-    out = tmp_path / "s.json"
-    code = main(
-        ["gait", "identify", str(FIXTURE), "--phase", "controller", "--fit-fraction", "0.6"]
-        + ["--no-plots", "--no-store", "--no-simulate", "--json", str(out)]
-        + ["--design-bound", "full"]
-    )
-    summary = json.loads(out.read_text())
+    code, summary = _identify_with_full_bound(FIXTURE, tmp_path / "s.json")
     assert code == 0 and summary["settings"]["method"] == "smoother"
     # the whole design's bound needs the motor noise, which this walk had none of: said
     assert summary["K_relative_bound_full_design"] is None
@@ -257,13 +262,7 @@ def test_the_whole_designs_bound_sits_beside_the_states_known_one(tmp_path):
     trial = read_trial(FIXTURE)
     trial.metadata["motor_noise"] = {"std": 3.0, "seed": 1}
     folder = trial.write(tmp_path / "trial")
-    out = tmp_path / "s.json"
-    code = main(
-        ["gait", "identify", str(folder), "--phase", "controller", "--fit-fraction", "0.6"]
-        + ["--no-plots", "--no-store", "--no-simulate", "--json", str(out)]
-        + ["--design-bound", "full"]
-    )
-    summary = json.loads(out.read_text())
+    code, summary = _identify_with_full_bound(folder, tmp_path / "s.json")
     assert code == 0
     full, known = summary["K_relative_bound_full_design"], summary["K_relative_bound"]
     assert known > 0 and 0.9 * known < full < 1.5 * known
