@@ -74,7 +74,7 @@ def states_kkt(H: sp.spmatrix, C: sp.spmatrix, p0: int) -> sp.csc_matrix:
 
 def eliminate_states(
     design: Trials, z: np.ndarray, hessian: np.ndarray
-) -> tuple[int, np.ndarray, np.ndarray, np.ndarray]:
+) -> tuple[int, np.ndarray, np.ndarray]:
     """The states and constraints eliminated from the KKT matrix at ``z``.
 
     Parameters
@@ -88,10 +88,8 @@ def eliminate_states(
     -------
     p0 : int
         Where the parameters start in the free vector.
-    B : ndarray, shape (n_s + m, n_p)
-        ``[H_sp; C_p]``.
     X : ndarray, shape (n_s + m, n_p)
-        ``K_s^-1 B``.
+        ``K_s^-1 B`` with ``B = [H_sp; C_p]``.
     S : ndarray, shape (n_p, n_p)
         The parameters' Schur complement ``H_pp - B^T K_s^-1 B``, symmetrised: with the
         Gauss-Newton ``H`` of a likelihood, twice the parameters' Fisher information with
@@ -123,7 +121,7 @@ def eliminate_states(
     if seen.size:
         X[:, seen] = lu.solve(np.ascontiguousarray(B[:, seen]))  # K_s's factors freed after
         S[np.ix_(seen, seen)] -= B[:, seen].T @ X[:, seen]
-    return p0, B, X, 0.5 * (S + S.T)
+    return p0, X, 0.5 * (S + S.T)
 
 
 class ReducedKKT:
@@ -151,7 +149,7 @@ class ReducedKKT:
     """
 
     def __init__(self, design: Trials, z: np.ndarray, hessian: np.ndarray) -> None:
-        self.p0, _, self.X, S = eliminate_states(design, z, hessian)
+        self.p0, self.X, S = eliminate_states(design, z, hessian)
         try:
             self.S_inv = np.linalg.inv(S)
         except np.linalg.LinAlgError as exc:

@@ -177,7 +177,7 @@ class ClosedLoopInformation:
         guess.update({w: (window.torques - law)[:, j] for j, w in enumerate(self.motor.values())})
         z = problem.initial_guess(guess, gs.parameter_values(Tstar, K))
         design = as_trials(problem)
-        _, _, _, S = eliminate_states(design, z, design.nlp.gauss_newton_hessian(z))
+        _, _, S = eliminate_states(design, z, design.nlp.gauss_newton_hessian(z))
         names = list(problem.layout.parameter_names)
         order = [names.index(str(p)) for p in gs.parameters]
         # the Gauss-Newton Hessian of sum w r^2 is twice J^T W J, the Fisher information
