@@ -104,8 +104,8 @@ def eliminate_states(
     p0 = design.parameter_offset
     H = hessian_matrix(design, hessian)
     C = constraint_jacobian(design, z)
-    Hsp, Hpp = H[:p0, p0:], H[p0:, p0:].toarray()
-    B = sp.vstack([Hsp, C[:, p0:]]).toarray()
+    Hpp = H[p0:, p0:].toarray()
+    B = sp.vstack([H[:p0, p0:], C[:, p0:]]).tocsc()
     try:
         lu = spla.splu(states_kkt(H, C, p0))
     except RuntimeError as exc:
@@ -114,13 +114,15 @@ def eliminate_states(
             "the data and the dynamics"
         ) from exc
     # A parameter that no state or constraint sees (a schedule point a short window never
-    # reaches) has a zero column in B, and so in X: solve for the others only.
-    seen = np.flatnonzero(np.any(B != 0.0, axis=0))
-    X = np.zeros_like(B)
+    # reaches) has an empty column in B, and so in X: solve for the others only. B stays
+    # sparse in the product B^T X (a few per cent of it is filled).
+    seen = np.flatnonzero(np.diff(B.indptr) > 0)
+    X = np.zeros(B.shape)
     S = Hpp.copy()
     if seen.size:
-        X[:, seen] = lu.solve(np.ascontiguousarray(B[:, seen]))  # K_s's factors freed after
-        S[np.ix_(seen, seen)] -= B[:, seen].T @ X[:, seen]
+        B_seen = B[:, seen]
+        X[:, seen] = lu.solve(B_seen.toarray())  # K_s's factors are freed after
+        S[np.ix_(seen, seen)] -= np.asarray(B_seen.T @ X[:, seen])
     return p0, X, 0.5 * (S + S.T)
 
 

@@ -115,6 +115,7 @@ class ClosedLoopInformation:
         index = {x: i for i, x in enumerate(model.states)}
         self.feedback = [index[x] for x in gs.feedback]
         self._built: dict[tuple[int, float], Any] = {}
+        self._order: dict[int, list[int]] = {}  # a built problem's parameters in gs's order
 
     def _problem(self, window: WindowDesign) -> Any:
         from colloc.nlp.objective import Tracking
@@ -178,8 +179,10 @@ class ClosedLoopInformation:
         z = problem.initial_guess(guess, gs.parameter_values(Tstar, K))
         design = as_trials(problem)
         _, _, S = eliminate_states(design, z, design.nlp.gauss_newton_hessian(z))
-        names = list(problem.layout.parameter_names)
-        order = [names.index(str(p)) for p in gs.parameters]
+        order = self._order.get(id(problem))
+        if order is None:
+            index = {name: i for i, name in enumerate(problem.layout.parameter_names)}
+            order = self._order[id(problem)] = [index[str(p)] for p in gs.parameters]
         # the Gauss-Newton Hessian of sum w r^2 is twice J^T W J, the Fisher information
         return 0.5 * S[np.ix_(order, order)]
 
