@@ -40,7 +40,11 @@ from colloc.identify.gait.design_bound import PIECE_NODES, BoundJob, WindowDesig
 from colloc.identify.gait.phase_law import phase_law
 from colloc.identify.gait.read import state_names, subject, tracked_columns
 from colloc.identify.gait.settings import DEFAULT_TRACK
-from colloc.identify.gait.trial_noise import torque_equation_noise, trial_noise_std
+from colloc.identify.gait.trial_noise import (
+    recorded_motor_noise,
+    torque_equation_noise,
+    trial_noise_std,
+)
 from colloc.identify.gait.windows import gait_dynamics
 
 RESULTS = Path(__file__).parent / "results" / "gait_design_bound.json"
@@ -57,7 +61,7 @@ def main() -> None:
 
     trial = read_trial(args.trial)
     meta = trial.metadata
-    motor = float((meta.get("motor_noise") or {}).get("std", 0.0) or 0.0)
+    motor = recorded_motor_noise(meta) or 0.0
     if motor <= 0:
         raise SystemExit("the trial records no motor noise: the whole design's bound needs it")
     controller = meta["controller"]

@@ -41,7 +41,7 @@ def smoother_fit(c: FitContext) -> Fit:
     the interval midpoints), with stride-sandwich errors and the bound of the design
     (:mod:`colloc.identify.gait.controller_fit`)."""
     from colloc.identify.gait.controller_fit import fit_schedule_with_errors, instruments_pay
-    from colloc.identify.gait.trial_noise import torque_equation_noise
+    from colloc.identify.gait.trial_noise import recorded_motor_noise, torque_equation_noise
     from colloc.identify.gait.windows import smooth_windows
 
     settings, data, gs = c.settings, c.data, c.gs
@@ -120,8 +120,7 @@ def smoother_fit(c: FitContext) -> Fit:
             + ")"
         )
     )
-    motor = meta.get("motor_noise")
-    if isinstance(motor, dict) and float(motor.get("std", 0.0) or 0.0) == 0.0:
+    if recorded_motor_noise(meta) == 0.0:
         c.notes.append(ZERO_MOTOR_NOISE_NOTE)
     c.lap("controller")
     full = _full_design_bound(c, results, source, est) if settings.design_bound == "full" else None
@@ -160,7 +159,7 @@ def _full_design_bound(
     reason in the notes."""
     from colloc.identify.gait.design_bound import BoundJob, WindowDesign, full_design_bound
     from colloc.identify.gait.read import subject, tracked_columns
-    from colloc.identify.gait.trial_noise import trial_noise_std
+    from colloc.identify.gait.trial_noise import recorded_motor_noise, trial_noise_std
 
     data, meta = c.data, c.data.trial.metadata
     if SOURCES[source].lab_markers:
@@ -169,8 +168,7 @@ def _full_design_bound(
             "torques, not yet for a lab's markers and plates: only the states-known bound"
         )
         return None
-    motor = meta.get("motor_noise")
-    std = float(motor.get("std", 0.0) or 0.0) if isinstance(motor, dict) else 0.0
+    std = recorded_motor_noise(meta) or 0.0
     if std <= 0.0:
         c.notes.append(
             "design bound: the trial records no motor noise, the closed loop's residual the "

@@ -21,14 +21,22 @@ def trial_noise_std(meta: Mapping[str, Any], column: str) -> float:
     return float(value) if value else DEFAULT_NOISE_STD[group]
 
 
+def recorded_motor_noise(meta: Mapping[str, Any]) -> float | None:
+    """The motor noise's standard deviation a synthetic trial records [N m] (``motor_noise:
+    std``; 0 when the entry has none), or None when the trial records no motor noise entry."""
+    motor = meta.get("motor_noise")
+    if not isinstance(motor, Mapping):
+        return None
+    return float(motor.get("std", 0.0) or 0.0)
+
+
 def torque_equation_noise(meta: Mapping[str, Any]) -> float | None:
     """The noise of each torque equation ``T = T*(phi) - K(phi) s``: the trial's torque
     measurement noise and its recorded motor noise combined (``hypot``), or None when the
     trial records no motor noise."""
     from colloc.data.columns import TORQUE_COLUMNS
 
-    motor = meta.get("motor_noise")
-    if not isinstance(motor, Mapping):
+    motor = recorded_motor_noise(meta)
+    if motor is None:
         return None
-    torque_std = trial_noise_std(meta, TORQUE_COLUMNS[0])
-    return float(np.hypot(torque_std, float(motor.get("std", 0.0))))
+    return float(np.hypot(trial_noise_std(meta, TORQUE_COLUMNS[0]), motor))
