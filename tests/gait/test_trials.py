@@ -434,9 +434,13 @@ def test_an_unstable_trial_controller_is_refused_after_settling(monkeypatch, tmp
     settings = GaitSimulationSettings(duration=3.0, out=out, perturbed=False, feedback="joints")
     with pytest.raises(UnstableControllerError, match=r"found 3.5 .*feedback 'joints'"):
         simulate_trial(settings)
-    # the P-point controller's own stride is not walked with an unstable design, and the
-    # design on the full-state stride is refused
-    assert [c[0] for c in calls] == ["dynamics", "cycle", "design", "settle", "design", "design"]
+    # the P-point controller's own stride is not walked with an unstable design; the finer
+    # cycles are tried (their settling designs unstable too: radii 3.5, 3.5, then 0.2 ...),
+    # and the design on the first full-state stride is refused
+    steps = [c[0] for c in calls]
+    assert steps[:6] == ["dynamics", "cycle", "design", "settle", "design", "cycle"]
+    assert steps.count("cycle") == 3 and steps[-1] == "design"
+    assert "simulate" not in steps
     assert not out.exists()
 
 
@@ -452,13 +456,48 @@ def test_a_schedule_stride_that_does_not_settle_leaves_the_full_state_stride(mon
     )
     result = simulate_trial(settings)
     designs = [c for c in calls if c[0] == "design"]
-    # the trial's controller designed on the full-state settled stride, and the user told why
-    assert len(designs) == 3 and designs[2][2]["cycle"].stats["settled"] == 1
+    # every cycle tried (60, 100, 160 nodes: a settling and a P-point design each), none of
+    # their P-point walkers settled: the trial's controller is designed on the first
+    # full-state settled stride, and the user told why
+    assert [c[2]["num_nodes"] for c in calls if c[0] == "cycle"] == [60, 100, 160]
+    assert len(designs) == 7 and designs[-1][2]["cycle"].stats["settled"] == 1
+    assert result.trial.metadata["cycle_nodes"] == 60
     assert any(
         "P = 20 controller's own stride was not used" in n and "still differ" in n
         for n in result.notes
     ), result.notes
+    assert any(n.startswith("no finer cycle did better: 100 nodes: ") for n in result.notes)
     assert any("still differ" in n for n in result.summary["notes"])
+
+
+def test_a_schedule_stride_that_does_not_settle_refines_the_cycle(monkeypatch, tmp_path):
+    """At 1.35 m/s the 60-node cycle's P = 20 walker did not settle and the controller
+    designed on the full-state stride fell 5-8 s into the perturbed belt; the 100-node
+    cycle's walker settled and walked. A walker that does not settle is now one node count
+    that failed, and the finer cycle is tried before the full-state stride is used."""
+    import colloc.gait.workflow as workflow
+    from colloc.gait.settle import CycleNotSettledError
+
+    calls: list = []
+    error = CycleNotSettledError("settle_cycle: the last two strides still differ")
+    # settles: 60 nodes full-state, 60 nodes P-point (fails), 100 nodes full-state, P-point
+    fake_pipeline(monkeypatch, calls, settle_error=error, failing={2})
+    monkeypatch.setattr(workflow, "find_walking_cycle", _cycles_by_nodes(calls))
+    result = _refined_to_100_nodes(workflow, calls, tmp_path / "out")
+    designs = [c for c in calls if c[0] == "design"]
+    # the trial's controller is designed on the 100-node P-point walker's stride (settle 4)
+    stats = designs[-1][2]["cycle"].stats
+    assert (stats["nodes"], stats["settled"], stats["cycle_nodes"]) == (100, 4, 100)
+    assert "under the P = 20 controller" in stats["source"]
+    assert result.trial.metadata["cycle_nodes"] == 100
+    assert not any("own stride was not used" in n for n in result.notes)
+    assert any(
+        n.startswith(
+            "the walking cycle was refined to 100 nodes: 60 nodes: the P = 20 "
+            "controller's own stride did not settle (settle_cycle: the last two"
+        )
+        for n in result.summary["notes"]
+    ), result.summary["notes"]
 
 
 def test_a_schedule_that_falls_on_a_constant_belt_is_refused_before_the_walk(monkeypatch, tmp_path):

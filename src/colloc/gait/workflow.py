@@ -232,6 +232,9 @@ def _settled_cycle(
     failures: list[str] = []
     schedule_fell = False
     last: Exception | None = None
+    # the first node count whose full-state stride settled but whose P-point walker's did
+    # not: its full-state stride, for when no finer cycle's walker settles either
+    unsettled: tuple[int, WalkingCycle, str, int] | None = None
     for nodes in tries:
         with clock.step("cycle", f"periodic walking cycle at {settings.speed} m/s, {nodes} nodes"):
             cycle = find_walking_cycle(
@@ -284,12 +287,35 @@ def _settled_cycle(
                 schedule_fell = True
                 continue
             except (CycleNotSettledError, UnstableControllerError) as error:
-                # the trial's controller is then designed on the full-state stride
-                notes.append(
-                    f"the P = {settings.num_points} controller's own stride was not used: {error}"
+                # A P-point walker whose strides do not repeat is a poor cycle to design on,
+                # and the full-state stride is not where that walker goes: at 1.35 and 1.5
+                # m/s (60 nodes) the controller designed on the full-state stride fell 5-8 s
+                # into the perturbed belt with or without motor noise, where at 1.35 m/s the
+                # 100-node cycle's walker settled and walked. Try the finer cycle first.
+                failures.append(
+                    f"{nodes} nodes: the P = {settings.num_points} controller's own stride "
+                    f"did not settle ({error})"
                 )
+                if unsettled is None:
+                    unsettled = (nodes, settled, str(error), len(failures))
+                last = error
+                continue
         if failures:
             notes.append(f"the walking cycle was refined to {nodes} nodes: " + "; ".join(failures))
+        settled.stats = {**settled.stats, "cycle_nodes": nodes}
+        return settled
+    if unsettled is not None:
+        # no finer cycle did better: the trial's controller is designed on the full-state
+        # stride of the first cycle that settled (how 1.4 m/s walked the 480 s sweep)
+        nodes, settled, why, count = unsettled
+        notes.append(f"the P = {settings.num_points} controller's own stride was not used: {why}")
+        if count > 1:
+            notes.append(
+                f"the walking cycle was refined to {nodes} nodes: "
+                + "; ".join(failures[: count - 1])
+            )
+        if failures[count:]:
+            notes.append("no finer cycle did better: " + "; ".join(failures[count:]))
         settled.stats = {**settled.stats, "cycle_nodes": nodes}
         return settled
     hint = (
