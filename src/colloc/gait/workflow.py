@@ -306,7 +306,7 @@ def _settled_cycle(
         return settled
     if unsettled is not None:
         # no finer cycle did better: the trial's controller is designed on the full-state
-        # stride of the first cycle that settled (how 1.4 m/s walked the 480 s sweep)
+        # stride of the first cycle that settled (before this rule, how 1.4 m/s walked)
         nodes, settled, why, count = unsettled
         notes.append(f"the P = {settings.num_points} controller's own stride was not used: {why}")
         if count > 1:
