@@ -9,12 +9,17 @@ evaluated at the trial's own noisy states and the true schedule:
 * **whole design**: the closed loop's maximum a posteriori problem, the states unknown, the
   trial's angles, trunk pose and torques tracked at their noise and the motor noise a
   penalised residual, the states eliminated piece by piece
-  (:mod:`colloc.identify.gait.design_bound`).
+  (:mod:`colloc.identify.gait.design_bound`);
+* with ``--lab-trial`` (the trial ``colloc gait trial-from-lab`` made of the same walk's lab
+  export), **the lab's design**: the same closed loop tracking the lab's markers, with and
+  without its plates, and no torques (the marker smoother's design: its markers' places,
+  segment lengths, noise levels and trapezoidal rule), at the same states. What a lab loses by
+  not measuring torques, and what the plates give back.
 
 ::
 
     python benchmarks/gait_design_bound.py --trial DIR --start 3 --duration 20 \
-        [--piece-nodes 50] [--out FILE]
+        [--lab-trial LAB] [--piece-nodes 50] [--out FILE]
 
 Prints and appends to ``benchmarks/results/gait_design_bound.json``: both relative bounds of
 ``K`` and ``T*`` (``sqrt(sum var) / |truth|``), their ratio, the pieces, the wall time of the
@@ -56,6 +61,7 @@ def main() -> None:
     parser.add_argument("--start", type=float, default=0.0, help="s from the record's start")
     parser.add_argument("--duration", type=float, required=True, help="s of record")
     parser.add_argument("--piece-nodes", type=int, default=PIECE_NODES)
+    parser.add_argument("--lab-trial", type=Path, help="the same walk's trial-from-lab trial")
     parser.add_argument("--out", type=Path, default=RESULTS)
     args = parser.parse_args()
 
@@ -131,7 +137,53 @@ def main() -> None:
     record["Tstar_ratio"] = (
         record["Tstar_relative_bound_full_design"] / record["Tstar_relative_bound_states_known"]
     )
+    if args.lab_trial is not None:
+        record |= lab_bounds(args, job, gs, Tstar, K)
     append_record(args.out, record)
+
+
+def lab_bounds(
+    args: argparse.Namespace, job: BoundJob, gs: GainScheduled, Tstar: np.ndarray, K: np.ndarray
+) -> dict:
+    """The lab design's bounds (markers and plates; markers alone) at the job's states, over
+    the samples the lab trial kept."""
+    from dataclasses import replace
+
+    from colloc.identify.gait.design_bound import lab_signals
+    from colloc.identify.gait.markers import marker_smoother
+    from colloc.transcription import Trapezoidal
+
+    lab = read_trial(args.lab_trial)
+    window = job.window
+    kept = np.isin(np.round(lab.time, 6), np.round(window.times, 6))
+    rows = np.flatnonzero(kept)
+    ours = np.isin(np.round(window.times, 6), np.round(lab.time[rows], 6))
+    _, facts = marker_smoother(gait_dynamics(*job.body), lab, rows)
+    signals, (observed,) = lab_signals(lab, [facts], [lab.time[rows]])
+    markers = 2 * len(signals.segments)
+    cases = {
+        "markers_and_plates": (signals, observed),
+        "markers_alone": (replace(signals, plate_std=None), observed[:, :markers]),
+    }
+    out: dict = {"lab_trial": str(args.lab_trial), "lab_samples": int(rows.size)}
+    for name, (design, seen) in cases.items():
+        start = time.perf_counter()
+        part = WindowDesign(
+            window.times[ours],
+            window.states[ours],
+            window.torques[ours],
+            window.belt_speed[ours],
+            window.phase[ours],
+            seen,
+        )
+        lab_job = replace(job, noise=(), window=part, lab=design, scheme=Trapezoidal)
+        Tb, Kb, _ = full_design_bound(gs, [lab_job])
+        out[f"K_relative_bound_{name}"] = relative_spread(Kb, K)
+        out[f"Tstar_relative_bound_{name}"] = relative_spread(Tb, Tstar)
+        out[f"{name}_seconds"] = time.perf_counter() - start
+        print(f"{name}: K bound {out[f'K_relative_bound_{name}']:.1%}, T* "
+              f"{out[f'Tstar_relative_bound_{name}']:.1%} ({out[f'{name}_seconds']:.0f} s)")  # fmt: skip
+    return out
 
 
 if __name__ == "__main__":

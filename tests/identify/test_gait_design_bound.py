@@ -17,6 +17,7 @@ from colloc.data.trial import read_trial
 from colloc.identify.gait.design_bound import (
     BoundJob,
     ClosedLoopInformation,
+    LabSignals,
     WindowDesign,
     design_bound,
     full_design_bound,
@@ -26,6 +27,7 @@ from colloc.identify.gait.design_bound import (
 from colloc.identify.gait.phase_law import phase_law
 from colloc.identify.gait.read import state_names
 from colloc.identify.gait.windows import gait_dynamics
+from colloc.models.gait2d_markers import SEGMENTS
 
 FIXTURE = Path(__file__).parent / "data" / "gait_trial_p20"  # noise-free: the true states
 MOTOR = 3.0  # N m per sample
@@ -140,3 +142,83 @@ def test_bad_noise_is_named(setting):
         ClosedLoopInformation(dyn, gs, {"right_hip_angle": -1.0}, 3.0)
     with pytest.raises(ValueError, match="singular"):
         design_bound([np.zeros((3, 3))])
+
+
+def lab_design(marker_std, plate_std=None):
+    """Two markers on every segment, off its axis (so each segment's pose is fixed by them)."""
+    segments = tuple((f"{seg}_{k}", seg) for seg in SEGMENTS for k in (0, 1))
+    local = tuple(
+        (name, (0.05 + 0.1 * k, -0.2 + 0.25 * k if "foot" not in name else 0.02 * k))
+        for (name, _), k in zip(segments, [0, 1] * len(SEGMENTS), strict=True)
+    )
+    return LabSignals(segments, local, (("l_thigh", 0.44),), marker_std, plate_std)
+
+
+def test_nearly_exact_markers_leave_the_motor_noise_regression(setting):
+    """A marker to a micrometre on every segment fixes every coordinate as the angles to a
+    micrometre do: the lab design's information must come to the same regression."""
+    dyn, gs, window, Tstar, K, feedback = setting
+    lab = lab_design(1e-6)
+    information = ClosedLoopInformation(dyn, gs, {}, MOTOR, lab=lab)
+    assert len(information.tracked) == 4 * len(SEGMENTS)
+    # the subject's constant replaces gait2d's own
+    assert information.constants[dyn.gait.segment_symbols.l_thigh] == 0.44
+    reference = regression_information(gs, window, feedback, MOTOR)
+    seen = np.flatnonzero(np.diag(reference) > 0)
+    info = information(window, Tstar, K)
+    block, ref = info[np.ix_(seen, seen)], reference[np.ix_(seen, seen)]
+    assert np.linalg.norm(block - ref) < 0.03 * np.linalg.norm(ref)
+    assert 0.97 < np.trace(block) / np.trace(ref) <= 1.0 + 1e-9
+
+
+def test_plates_and_seen_markers_add_information_hidden_ones_none(setting):
+    dyn, gs, window, Tstar, K, _ = setting
+    N = window.times.size
+    markers = ClosedLoopInformation(dyn, gs, {}, MOTOR, lab=lab_design(1e-3))
+    plates = ClosedLoopInformation(dyn, gs, {}, MOTOR, lab=lab_design(1e-3, (2.0, 1.0)))
+    assert len(plates.tracked) == len(markers.tracked) + 6
+    alone = markers(window, Tstar, K)
+    both = plates(window, Tstar, K)
+    gap = np.linalg.eigvalsh(both - alone)  # Loewner order: the plates add, never take
+    assert gap.min() > -1e-6 * gap.max() and gap.max() > 0.05 * np.linalg.eigvalsh(alone).max()
+    # every sample marked seen is the window without a mask
+    everywhere = np.ones((N, 4 * len(SEGMENTS)), bool)
+    seen = WindowDesign(window.times, window.states, window.torques, window.belt_speed,
+                        window.phase, everywhere)  # fmt: skip
+    np.testing.assert_allclose(markers(seen, Tstar, K), alone, rtol=1e-8, atol=1e-8)
+    # the trunk's markers hidden for the first half: less information, and the built problem
+    # is reused with the new mask
+    hidden = seen.observed.copy()
+    hidden[: N // 2, :4] = False
+    part = WindowDesign(seen.times, seen.states, seen.torques, seen.belt_speed, seen.phase, hidden)
+    less = markers(part, Tstar, K)
+    assert len(markers._built) == 1
+    gap = np.linalg.eigvalsh(alone - less)
+    assert gap.min() > -1e-6 * gap.max() and gap.max() > 0
+    with pytest.raises(ValueError, match="window.observed: expected shape"):
+        markers(WindowDesign(seen.times, seen.states, seen.torques, seen.belt_speed,
+                             seen.phase, hidden[:, :3]), Tstar, K)  # fmt: skip
+
+
+def test_a_lab_design_travels_to_a_worker(setting):
+    from colloc.transcription import Trapezoidal
+
+    dyn, gs, window, Tstar, K, feedback = setting
+    lab = lab_design(1e-3, (2.0, 1.0))
+    job = BoundJob((75.0, 1.8), gs.num_points, tuple(feedback), gs.mask, (), MOTOR, window,
+                   Tstar, K, nodes=20, lab=lab, scheme=Trapezoidal)  # fmt: skip
+    travelled = pickle.loads(pickle.dumps(job))
+    information = ClosedLoopInformation(dyn, gs, {}, MOTOR, Trapezoidal(), lab)
+    direct = sum(information(piece, Tstar, K) for piece in pieces(window, 20))
+    np.testing.assert_allclose(job_information(travelled), direct, rtol=1e-9, atol=1e-9)
+
+
+def test_a_bad_lab_design_is_named(setting):
+    dyn, gs, *_ = setting
+    with pytest.raises(ValueError, match="unknown constants \\['l_arm'\\]"):
+        bad = LabSignals((("a", "trunk"),), (("a", (0.0, 0.1)),), (("l_arm", 0.3),), 1e-3, None)
+        ClosedLoopInformation(dyn, gs, {}, MOTOR, lab=bad)
+    with pytest.raises(ValueError, match="noise levels > 0"):
+        ClosedLoopInformation(dyn, gs, {}, MOTOR, lab=lab_design(1e-3, (0.0, 1.0)))
+    with pytest.raises(ValueError, match="at least one tracked signal"):
+        ClosedLoopInformation(dyn, gs, {}, MOTOR)

@@ -319,6 +319,15 @@ def test_truth_from_another_trial_scores_the_walk_like_the_walk_itself(tmp_path)
     assert given.trial.metadata["controller"] == own.trial.metadata["controller"]
     assert given.trial.metadata["truth_source"] == str(FIXTURE)
     assert "controller" not in alone.trial.metadata
+    # the motor noise the walk was simulated with comes along for the lab design's bound,
+    # beside (not over) the trial's own entry, which its torques' bound reads
+    walked = copy_fixture(tmp_path / "walked")
+    meta = yaml.safe_load((walked / "metadata.yaml").read_text())
+    meta["motor_noise"] = {"std": 3.0, "seed": 7}
+    (walked / "metadata.yaml").write_text(yaml.safe_dump(meta))
+    lab = read_gait_data(GaitIdentifySettings(trial=trial, fit_fraction=0.6, truth=walked))
+    assert lab.trial.metadata["truth_motor_noise"] == 3.0
+    assert lab.trial.metadata.get("motor_noise") == own.trial.metadata.get("motor_noise")
 
 
 # a second identification of the fixture (23 s): run by benchmarks/slow_tests.py

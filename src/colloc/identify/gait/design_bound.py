@@ -15,6 +15,12 @@ the sum of its windows' (each window's states its own: the joins' few nodes are 
 once less, a bound a little wider than the unbroken record's). Only sparse banded solves and
 one dense ``n_p x n_p`` block per window are formed: never the dense right-hand sides of the
 whole record.
+
+A lab's design (:class:`LabSignals`) tracks what the lab measured instead of angles and
+torques: each marker a point fixed in its segment, each plate the contact model's forces and
+moment under its foot (:mod:`colloc.identify.gait.markers`), each weighed by its noise and
+left out where it was not seen. No torque is measured there: the torques are known only
+through the dynamics, and the bound says what markers and plates can tell of the controller.
 """
 
 from __future__ import annotations
@@ -42,6 +48,10 @@ class WindowDesign:
     belt_speed : ndarray, shape (N,)
     phase : ndarray, shape (N,)
         The controller's unwrapped phase in cycles.
+    observed : ndarray of bool, shape (N, n_y), optional
+        Which tracked signal was measured at which node, in the order of
+        :attr:`ClosedLoopInformation.tracked` (a marker hidden, a plate with no sample there);
+        None: every one everywhere.
     """
 
     times: np.ndarray
@@ -49,6 +59,59 @@ class WindowDesign:
     torques: np.ndarray
     belt_speed: np.ndarray
     phase: np.ndarray
+    observed: np.ndarray | None = None
+
+
+@dataclass(frozen=True)
+class LabSignals:
+    """What a lab's design tracks, as plain data that travels to a worker.
+
+    Attributes
+    ----------
+    segments : tuple of (str, str)
+        Marker name -> its gait2d segment, in the order the markers are tracked.
+    local : tuple of (str, (float, float))
+        Marker name -> its position in the segment's frame [m].
+    constants : tuple of (str, float)
+        Gait2d constants the subject's markers set (segment lengths, the ankle's height),
+        by the constant's name.
+    marker_std : float
+        Each marker coordinate's noise [m].
+    plate_std : (float, float) or None
+        The plates' force [N] and moment [N m] noise per node (already divided by the root of
+        the samples a node averages); None: the plates are not tracked.
+    """
+
+    segments: tuple[tuple[str, str], ...]
+    local: tuple[tuple[str, tuple[float, float]], ...]
+    constants: tuple[tuple[str, float], ...]
+    marker_std: float
+    plate_std: tuple[float, float] | None
+
+    def outputs(self, gait: Any) -> list[tuple[Any, Any, float]]:
+        """The tracked outputs: (symbol, expression, noise), markers (``x``, ``y`` each)
+        first, then the plates in the order of :data:`colloc.data.tables.PLATE_COLUMNS`.
+
+        Parameters
+        ----------
+        gait : Gait2D
+
+        Returns
+        -------
+        list of (output symbol, expression, standard deviation)
+        """
+        from colloc.identify.gait.markers import marker_outputs, plate_outputs
+
+        names = [name for name, _ in self.segments]
+        markers = marker_outputs(gait, dict(self.segments), dict(self.local), names)
+        out = [(y, expression, self.marker_std) for y, expression in markers.values()]
+        if self.plate_std is not None:
+            force, moment = self.plate_std
+            out += [
+                (y, expression, moment if j % 3 == 2 else force)
+                for j, (y, expression) in enumerate(plate_outputs(gait))
+            ]
+        return out
 
 
 class ClosedLoopInformation:
@@ -72,12 +135,15 @@ class ClosedLoopInformation:
         Standard deviation of the motor noise per sample and joint [N m], > 0.
     scheme : Scheme, optional
         The transcription (default the midpoint rule, as the closed-loop fit).
+    lab : LabSignals, optional
+        A lab's markers and plates, tracked beside ``noise``'s columns (which may then be
+        empty).
 
     Raises
     ------
     ValueError
-        For a motor noise or tracked noise that is not a positive number, or an unknown
-        column.
+        For a motor noise or tracked noise that is not a positive number, an unknown
+        column or constant, or nothing tracked.
     """
 
     def __init__(
@@ -87,6 +153,7 @@ class ClosedLoopInformation:
         noise: Mapping[str, float],
         motor_noise: float,
         scheme: Any = None,
+        lab: LabSignals | None = None,
     ) -> None:
         from sympy.physics.mechanics import dynamicsymbols
 
@@ -108,8 +175,26 @@ class ClosedLoopInformation:
         if bad:
             raise ValueError(f"noise: expected standard deviations > 0, found {bad}")
         self.dyn, self.gs, self.scheme = dyn, gs, scheme
-        self.tracked = [by_column[c] for c in noise]
+        #: output symbol -> its expression (a column's is the state or torque itself)
+        self.outputs: dict[Any, Any] = {by_column[c]: by_column[c] for c in noise}
         self.weights = {by_column[c]: 1.0 / v**2 for c, v in noise.items()}
+        self.constants = dict(dyn.constants)
+        if lab is not None:
+            by_name = {str(c): c for c in self.constants}
+            unknown = sorted(name for name, _ in lab.constants if name not in by_name)
+            stds = [lab.marker_std, *(lab.plate_std or ())]
+            if unknown or not all(np.isfinite(v) and v > 0 for v in stds):
+                raise ValueError(
+                    "lab: expected gait2d's constants and noise levels > 0, found "
+                    + (f"unknown constants {unknown}" if unknown else f"noise {stds}")
+                )
+            self.constants.update({by_name[name]: value for name, value in lab.constants})
+            for y, expression, std in lab.outputs(gait):
+                self.outputs[y] = expression
+                self.weights[y] = 1.0 / std**2
+        if not self.outputs:
+            raise ValueError("noise: expected at least one tracked signal, found none")
+        self.tracked = list(self.outputs)
         self.motor = {T: dynamicsymbols(f"motor_noise_{name_of(T)}") for T in gait.torques}
         self.motor_noise = float(motor_noise)
         index = {x: i for i, x in enumerate(model.states)}
@@ -118,7 +203,6 @@ class ClosedLoopInformation:
         self._order: dict[int, list[int]] = {}  # a built problem's parameters in gs's order
 
     def _problem(self, window: WindowDesign) -> Any:
-        from colloc.nlp.objective import Tracking
         from colloc.nlp.problem import Problem
         from colloc.transcription import Midpoint
 
@@ -127,23 +211,48 @@ class ClosedLoopInformation:
         known = {gait.belt_speed: window.belt_speed, gs.phase: window.phase}
         key = (N, round(float(np.mean(np.diff(window.times))), 9))
         problem = self._built.get(key)
+        objective = self._objective(window)
         if problem is None:
-            closed = dyn.model.with_outputs(self.tracked).with_disturbances(self.motor)
-            # the data's values do not enter the Gauss-Newton information, only where it is
-            # taken: the tracked values are zeros
+            closed = dyn.model.with_outputs(self.outputs).with_disturbances(self.motor)
             problem = Problem(
                 closed.close_loop(gs),
                 window.times,
                 scheme=Midpoint() if self.scheme is None else self.scheme,
                 known_trajectories=known,
-                known_parameters=dict(dyn.constants),
-                objective=Tracking({y: np.zeros(N) for y in self.tracked}, self.weights),
+                known_parameters=self.constants,
+                objective=objective,
                 process_noise=dict.fromkeys(self.motor.values(), self.motor_noise),
             )
             self._built[key] = problem
-        else:
+        elif window.observed is None:
             problem.replace_data(known_trajectories=known)
+        else:
+            problem.replace_data(objective=objective, known_trajectories=known)
         return problem
+
+    def _objective(self, window: WindowDesign) -> Any:
+        """The tracking term: the data's values do not enter the Gauss-Newton information,
+        only where it is taken (the tracked values are zeros) and which samples were seen (a
+        sample not seen is NaN; a signal seen nowhere in the window weighs nothing)."""
+        from colloc.nlp.objective import Tracking
+
+        N = window.times.size
+        if window.observed is None:
+            return Tracking({y: np.zeros(N) for y in self.tracked}, self.weights)
+        seen = np.asarray(window.observed, dtype=bool)
+        if seen.shape != (N, len(self.tracked)):
+            raise ValueError(
+                f"window.observed: expected shape {(N, len(self.tracked))} (nodes x tracked "
+                f"signals), found {seen.shape}"
+            )
+        values = {
+            y: np.where(seen[:, j], 0.0, np.nan) if seen[:, j].any() else np.zeros(N)
+            for j, y in enumerate(self.tracked)
+        }
+        weights = {
+            y: self.weights[y] if seen[:, j].any() else 0.0 for j, y in enumerate(self.tracked)
+        }
+        return Tracking(values, weights)
 
     def __call__(self, window: WindowDesign, Tstar: np.ndarray, K: np.ndarray) -> np.ndarray:
         """The information from ``window`` at the schedule ``Tstar``, ``K``.
@@ -248,6 +357,7 @@ def pieces(window: WindowDesign, nodes: int = PIECE_NODES) -> list[WindowDesign]
                 window.torques[rows],
                 window.belt_speed[rows],
                 window.phase[rows],
+                None if window.observed is None else window.observed[rows],
             )
         )
     return out
@@ -277,6 +387,10 @@ class BoundJob:
         Where the information is evaluated.
     nodes : int
         Nodes per piece.
+    lab : LabSignals, optional
+        A lab's markers and plates, tracked beside ``noise``'s columns.
+    scheme : type, optional
+        The transcription's class (:mod:`colloc.transcription`); default the midpoint rule.
     """
 
     body: tuple[float, float]
@@ -289,6 +403,8 @@ class BoundJob:
     Tstar: np.ndarray
     K: np.ndarray
     nodes: int = PIECE_NODES
+    lab: LabSignals | None = None
+    scheme: type | None = None
 
 
 @functools.lru_cache(maxsize=2)
@@ -300,6 +416,8 @@ def _information(
     shape: tuple[int, int],
     noise: tuple[tuple[str, float], ...],
     motor_noise: float,
+    lab: LabSignals | None,
+    scheme: type | None,
 ) -> ClosedLoopInformation:
     from colloc.control.gain_scheduled import GainScheduled
     from colloc.identify.gait.windows import gait_dynamics
@@ -309,7 +427,9 @@ def _information(
     gs = GainScheduled(
         points, [dyn.model.states[i] for i in feedback], dyn.gait.torques, structure=structure
     )
-    return ClosedLoopInformation(dyn, gs, dict(noise), motor_noise)
+    return ClosedLoopInformation(
+        dyn, gs, dict(noise), motor_noise, None if scheme is None else scheme(), lab
+    )
 
 
 def job_information(job: BoundJob) -> np.ndarray:
@@ -333,6 +453,8 @@ def job_information(job: BoundJob) -> np.ndarray:
         mask.shape,
         job.noise,
         job.motor_noise,
+        job.lab,
+        job.scheme,
     )
     n = len(information.gs.parameters)
     total = np.zeros((n, n))
@@ -381,13 +503,81 @@ def full_design_bound(
     return Tstar_bound, K_bound, count
 
 
+def lab_signals(
+    trial: Any, facts: Sequence[Mapping[str, Any]], times: Sequence[np.ndarray]
+) -> tuple[LabSignals, list[np.ndarray]]:
+    """The lab design the marker smoother's windows tracked, and each window's samples seen.
+
+    Parameters
+    ----------
+    trial : Trial
+        The lab trial (its ``markers`` and ``plates`` tables).
+    facts : sequence of mapping
+        Each window's marker smoother facts (:func:`colloc.identify.gait.markers.marker_smoother`'s
+        second value): every marker's place in its segment (the windows' least-squares places
+        are averaged), the segment lengths, noise levels and plate samples per node.
+    times : sequence of ndarray
+        Each window's node times.
+
+    Returns
+    -------
+    signals : LabSignals
+    observed : list of ndarray of bool, shape (N_w, n_y)
+        Per window: the markers' ``x`` and ``y``, then (when tracked) the plates' six
+        channels, seen at each node.
+
+    Raises
+    ------
+    ValueError
+        When there are no windows, or the windows' facts disagree on the markers.
+    """
+    from colloc.identify.gait.markers import markers_on_nodes, plates_on_nodes
+
+    if not facts or len(facts) != len(times):
+        raise ValueError(
+            f"facts, times: expected one of each per window, found {len(facts)} and {len(times)}"
+        )
+    first = facts[0]
+    names = list(first["markers"])
+    if any(list(f["markers"]) != names for f in facts):
+        raise ValueError("facts: expected the same markers in every window")
+    local: dict[str, tuple[float, float]] = {}
+    for name in names:
+        a, b = np.mean([f["markers"][name]["in_segment_m"] for f in facts], axis=0)
+        local[name] = (float(a), float(b))
+    constant = {"thigh": "l_thigh", "shank": "l_shank", "ankle_height": "h_ankle"}
+    lengths = first.get("segment_lengths_m", {})
+    noise = first["noise"]
+    samples = float(np.median([f.get("plate_samples_per_node", 0.0) for f in facts]))
+    shrink = 1.0 / np.sqrt(max(samples, 1.0))
+    plates = samples > 0
+    signals = LabSignals(
+        tuple((name, str(first["markers"][name]["segment"])) for name in names),
+        tuple((name, local[name]) for name in names),
+        tuple((constant[k], float(v)) for k, v in lengths.items() if k in constant),
+        float(noise["marker_m"]),
+        (float(noise["force_n"]) * shrink, float(noise["moment_nm"]) * shrink) if plates else None,
+    )
+    observed = []
+    for t in times:
+        seen = markers_on_nodes(trial.tables["markers"], t)
+        columns = [np.isfinite(seen[name][:, k]) for name in names for k in (0, 1)]
+        if plates:
+            values, _ = plates_on_nodes(trial.tables["plates"], t)
+            columns += list(np.isfinite(values).T)
+        observed.append(np.column_stack(columns))
+    return signals, observed
+
+
 __all__ = [
     "PIECE_NODES",
     "BoundJob",
     "job_information",
     "ClosedLoopInformation",
+    "LabSignals",
     "WindowDesign",
     "design_bound",
     "full_design_bound",
+    "lab_signals",
     "pieces",
 ]

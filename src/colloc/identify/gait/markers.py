@@ -249,6 +249,72 @@ def measured_lengths(meta: Mapping[str, Any]) -> dict[str, float]:
     return out
 
 
+def marker_outputs(
+    gait: Any,
+    segments: Mapping[str, str],
+    local: Mapping[str, Any],
+    names: Any = None,
+) -> dict[tuple[str, int], tuple[sm.Basic, sm.Expr]]:
+    """Each marker coordinate as the smoother's output: a point fixed in its segment.
+
+    Parameters
+    ----------
+    gait : Gait2D
+    segments : mapping
+        Marker name -> its gait2d segment.
+    local : mapping
+        Marker name -> ``(a, b)``, its position in the segment's frame [m].
+    names : iterable of str, optional
+        The markers, in this order (default ``local``'s).
+
+    Returns
+    -------
+    dict
+        ``(name, 0 or 1)`` (``x`` or ``y``) -> (output symbol ``marker_<name>_<x|y>(t)``,
+        its expression in the coordinates).
+    """
+    from sympy.physics.mechanics import dynamicsymbols
+
+    from colloc.models.gait2d_markers import marker_position
+
+    out = {}
+    for name in local if names is None else names:
+        position = marker_position(gait, segments[name], tuple(local[name]))
+        for k, axis in enumerate("xy"):
+            out[(name, k)] = (dynamicsymbols(f"marker_{name}_{axis}"), position[k])
+    return out
+
+
+def plate_outputs(gait: Any) -> list[tuple[sm.Basic, sm.Expr]]:
+    """Each foot's plate as the contact model gives it, in the order of
+    :data:`colloc.data.tables.PLATE_COLUMNS` (per side: forward force, vertical force and
+    the moment about the origin on the floor, the heel's and toe's contact summed).
+
+    Parameters
+    ----------
+    gait : Gait2D
+
+    Returns
+    -------
+    list of (output symbol ``plate_<side>_<force_x|force_y|moment>(t)``, expression)
+    """
+    from sympy.physics.mechanics import dynamicsymbols
+
+    out = []
+    for side in SIDES:
+        forces = [gait.contact_forces[f"{side}_{p}"] for p in ("heel", "toe")]
+        points = [gait.contact_points[f"{side}_{p}"] for p in ("heel", "toe")]
+        fx = sum((f[0] for f in forces), sm.Integer(0))
+        fy = sum((f[1] for f in forces), sm.Integer(0))
+        moment = sum(
+            (pt[0] * f[1] - pt[1] * f[0] for pt, f in zip(points, forces, strict=True)),
+            sm.Integer(0),
+        )
+        for label, expression in (("force_x", fx), ("force_y", fy), ("moment", moment)):
+            out.append((dynamicsymbols(f"plate_{side}_{label}"), expression))
+    return out
+
+
 def marker_smoother(
     dynamics: Any,
     trial: Any,
@@ -289,9 +355,7 @@ def marker_smoother(
         When the trial has no markers, a marker names an unknown segment or is never seen,
         or a noise override is not a positive number.
     """
-    from sympy.physics.mechanics import dynamicsymbols
-
-    from colloc.models.gait2d_markers import local_positions, marker_position
+    from colloc.models.gait2d_markers import local_positions
 
     if not has_markers(trial):
         raise ValueError(
@@ -351,14 +415,8 @@ def marker_smoother(
         for name in markers
     }
     tracked: dict[sm.Basic, tuple[sm.Expr, np.ndarray, float]] = {}
-    for name, xy in markers.items():
-        position = marker_position(gait, segments[name], tuple(local[name]))
-        for k, axis in enumerate("xy"):
-            tracked[dynamicsymbols(f"marker_{name}_{axis}")] = (
-                position[k],
-                xy[:, k],
-                levels.marker,
-            )
+    for (name, k), (y, expression) in marker_outputs(gait, segments, local, markers).items():
+        tracked[y] = (expression, markers[name][:, k], levels.marker)
     inverse_dynamics = signals[list(TORQUE_COLUMNS)].to_numpy(dtype=float)
     for k, torque in enumerate(gait.torques):
         tracked[torque] = (torque, inverse_dynamics[:, k], levels.torque_prior)
@@ -366,25 +424,10 @@ def marker_smoother(
     if use_plates and "plates" in trial.tables:
         plates, samples = plates_on_nodes(trial.tables["plates"], times)
         shrink = 1.0 / np.sqrt(max(samples, 1.0))
-        for j, side in enumerate(SIDES):
-            forces = [gait.contact_forces[f"{side}_{p}"] for p in ("heel", "toe")]
-            points = [gait.contact_points[f"{side}_{p}"] for p in ("heel", "toe")]
-            fx = sum((f[0] for f in forces), sm.Integer(0))
-            fy = sum((f[1] for f in forces), sm.Integer(0))
-            moment = sum(
-                (pt[0] * f[1] - pt[1] * f[0] for pt, f in zip(points, forces, strict=True)),
-                sm.Integer(0),
-            )
-            for k, (label, expression, std) in enumerate(
-                (
-                    ("force_x", fx, levels.force),
-                    ("force_y", fy, levels.force),
-                    ("moment", moment, levels.moment),
-                )
-            ):
-                y = dynamicsymbols(f"plate_{side}_{label}")
-                tracked[y] = (expression, plates[:, 3 * j + k], std * shrink)
-                plate_signals.append(y)
+        for j, (y, expression) in enumerate(plate_outputs(gait)):
+            std = levels.moment if j % 3 == 2 else levels.force
+            tracked[y] = (expression, plates[:, j], std * shrink)
+            plate_signals.append(y)
     smoother = GaitSmoother(
         dynamics,
         times,

@@ -92,8 +92,10 @@ def take_truth(trial: Trial, source: Any) -> list[str]:
     """Give ``trial`` the controller recorded in another trial's metadata.
 
     For a lab export of a simulated walk: the export's trial records no controller, the
-    simulated trial does. The controller entry replaces ``trial``'s (in memory), and
-    ``truth_source`` names where it came from.
+    simulated trial does. The controller entry replaces ``trial``'s (in memory),
+    ``truth_source`` names where it came from, and the motor noise that walk was simulated
+    with becomes ``truth_motor_noise`` (the lab design's bound needs it; the trial's own
+    ``motor_noise`` entry, which its torques' bound reads, is left as it is).
 
     Parameters
     ----------
@@ -118,6 +120,9 @@ def take_truth(trial: Trial, source: Any) -> list[str]:
         ]
     trial.metadata["controller"] = recorded
     trial.metadata["truth_source"] = str(source)
+    motor = other.get("motor_noise")
+    if isinstance(motor, dict) and isinstance(motor.get("std"), int | float):
+        trial.metadata["truth_motor_noise"] = float(motor["std"])
     return []
 
 

@@ -157,27 +157,50 @@ def _full_design_bound(
 ) -> tuple[np.ndarray, np.ndarray] | None:
     """The whole design's bound at the estimate (``--design-bound full``), or None with the
     reason in the notes."""
-    from colloc.identify.gait.design_bound import BoundJob, WindowDesign, full_design_bound
+    from colloc.identify.gait.design_bound import (
+        BoundJob,
+        WindowDesign,
+        full_design_bound,
+        lab_signals,
+    )
     from colloc.identify.gait.read import subject, tracked_columns
     from colloc.identify.gait.trial_noise import recorded_motor_noise, trial_noise_std
 
     data, meta = c.data, c.data.trial.metadata
-    if SOURCES[source].lab_markers:
-        c.notes.append(
-            "design bound: the whole design's bound is built for a trial's angles, trunk and "
-            "torques, not yet for a lab's markers and plates: only the states-known bound"
-        )
-        return None
+    lab = SOURCES[source].lab_markers
     std = recorded_motor_noise(meta) or 0.0
+    said = ""
+    if std <= 0.0 and lab and _positive(meta.get("truth_motor_noise")):
+        std, said = float(meta["truth_motor_noise"]), " (the --truth trial's)"
     if std <= 0.0:
         c.notes.append(
             "design bound: the trial records no motor noise, the closed loop's residual the "
-            "whole design's bound needs: only the states-known bound"
+            "whole design's bound needs"
+            + (" (a lab's: give --truth, the simulated walk's trial)" if lab else "")
+            + ": only the states-known bound"
         )
         return None
     where = "" if c.map_windows is None else " on the workers"
     c.say("bound", f"the whole design's information, states unknown, piece by piece{where}")
-    noise = tuple((col, trial_noise_std(meta, col)) for col in tracked_columns(c.settings.track))
+    observed: list[np.ndarray | None] = [None] * len(results)
+    if lab:
+        signals, masks = lab_signals(
+            data.trial, [r.tracking for r in results], [r.times for r in results]
+        )
+        observed = list(masks)
+        noise: tuple[tuple[str, float], ...] = ()
+        scheme: type | None = type(results[0].scheme) if results[0].scheme is not None else None
+        tracks = (
+            f"{len(signals.segments)} markers"
+            + (" and the plates" if signals.plate_std is not None else "")
+            + ", no torques"
+        )
+    else:
+        signals, scheme = None, None
+        noise = tuple(
+            (col, trial_noise_std(meta, col)) for col in tracked_columns(c.settings.track)
+        )
+        tracks = ", ".join(col for col, _ in noise)
     belt = data.window.signals["belt_speed"].to_numpy(dtype=float)
     index = {x: i for i, x in enumerate(c.dyn.model.states)}
     jobs = [
@@ -194,11 +217,14 @@ def _full_design_bound(
                 r.torques,
                 np.interp(r.times, data.window.time, belt),
                 data.phase.between(r.times, data.window.time, data.window.phase),
+                seen,
             ),
             est.Tstar,
             est.K,
+            lab=signals,
+            scheme=scheme,
         )
-        for r in results
+        for r, seen in zip(results, observed, strict=True)
     ]
     try:
         Tstar_bound, K_bound, count = full_design_bound(c.gs, jobs, c.map_windows)
@@ -208,10 +234,14 @@ def _full_design_bound(
     c.lap("bound")
     c.notes.append(
         f"design bound: the whole design's, states unknown (the closed loop's maximum a "
-        f"posteriori problem at the estimate, motor noise {std:g} N m, {count} pieces of the "
-        "smoothed windows, colloc.identify.gait.design_bound)"
+        f"posteriori problem at the estimate tracking {tracks}, motor noise {std:g} N m"
+        f"{said}, {count} pieces of the smoothed windows, colloc.identify.gait.design_bound)"
     )
     return Tstar_bound, K_bound
+
+
+def _positive(value: Any) -> bool:
+    return isinstance(value, int | float) and bool(np.isfinite(value)) and value > 0
 
 
 def _signals(
