@@ -24,6 +24,8 @@ from colloc.gait.trials import resolve_noise_std
 
 #: Environment variable naming the default belt-speed record.
 BELT_RECORD_ENV = "COLLOC_BELT_RECORD"
+#: The belt-speed record shipped with colloc (see its SOURCE.md).
+SHIPPED_BELT_RECORD = Path(__file__).resolve().parent / "reference" / "RandomSlowSpeed1.txt"
 
 #: Schedule points of the trial's controller by default: the smallest P measured to walk the
 #: whole 8-minute perturbation record (feedback "all", settled 1.2 m/s cycle: P = 20 walked
@@ -66,6 +68,80 @@ LONG_SIMULATION_SECONDS = 120.0
 
 #: Gait-controller structures accepted by :attr:`GaitSimulationSettings.structure`.
 STRUCTURES: tuple[str, ...] = ("full", "joint-isolated")
+
+
+@dataclass(frozen=True)
+class MeasuredLimit:
+    """Settings under which synthetic walks were measured to fall for some seeds: refused
+    before the work, with what was measured (every condition must hold).
+
+    Attributes
+    ----------
+    below_speed : float
+        Walking speeds under this [m/s].
+    scale_above : float
+        Perturbation scales above this, on the shipped belt record.
+    noise_from : float
+        Motor noise at least this [N m].
+    longer_than : float
+        Durations above this [s] (the walks measured lasted this long).
+    measured : str
+        What was measured, said in the refusal.
+    """
+
+    below_speed: float
+    scale_above: float
+    noise_from: float
+    longer_than: float
+    measured: str
+
+    def refusal(self, settings: GaitSimulationSettings) -> str | None:
+        """The reason ``settings`` is refused, or None when the limit does not apply.
+
+        Parameters
+        ----------
+        settings : GaitSimulationSettings
+
+        Returns
+        -------
+        str or None
+        """
+        applies = (
+            settings.perturbed is True
+            and settings.belt_path.resolve() == SHIPPED_BELT_RECORD
+            and settings.speed < self.below_speed
+            and settings.perturbation_scale > self.scale_above
+            and settings.motor_noise >= self.noise_from
+            and settings.duration > self.longer_than
+        )
+        if not applies:
+            return None
+        return (
+            f"speed {settings.speed:g} m/s with motor noise {settings.motor_noise:g} N m for "
+            f"{settings.duration:g} s on the perturbation record at scale "
+            f"{settings.perturbation_scale:g}: {self.measured} (docs/gait.md). Walk at "
+            f"{self.below_speed:g} m/s or faster, {self.longer_than:g} s or less, with less "
+            f"than {self.noise_from:g} N m of motor noise, or with --perturbation-scale "
+            f"{self.scale_above:g} or less"
+        )
+
+
+#: The slowest walks on the perturbation record at scale 1 trip where the belt slows to
+#: 60-69 % of the walking speed: at 0.8 m/s, 480 s (2026-11-28, 4450ce0), 1 of 8 seeds fell
+#: with 3 N m of motor noise, 1 of 4 with 4 N m and 5 of 8 with 5 N m, every fall after
+#: 290 s (the first trip at 242 s); all 20 walked 240 s; without motor noise it walks (below
+#: 3 N m it was not measured). At 0.85 and 0.9 m/s with 5 N m none of four seeds fell.
+SLOW_WALK_LIMIT = MeasuredLimit(
+    below_speed=0.85,
+    scale_above=0.5,
+    noise_from=3.0,
+    longer_than=240.0,
+    measured=(
+        "at 0.8 m/s with 3-5 N m of motor noise 7 of 20 walks of 480 s fell, the swing toe "
+        "catching the belt where it slows to 60-69 % of the walking speed (all after 290 s; "
+        "every one walked 240 s)"
+    ),
+)
 
 
 @dataclass(frozen=True)
@@ -245,6 +321,10 @@ class GaitSimulationSettings:
                 f"{str(self.belt_path)!r}; pass its path (or set ${BELT_RECORD_ENV}), or walk "
                 "on a constant-speed belt (perturbed=False)"
             )
+        if not out:  # the limits measured, on settings that are otherwise usable
+            refusal = SLOW_WALK_LIMIT.refusal(self)
+            if refusal is not None:
+                out.append(refusal)
         return out
 
     def estimated_needs(self) -> dict[str, float]:
@@ -341,7 +421,7 @@ def default_belt_record() -> Path:
     """
     if os.environ.get(BELT_RECORD_ENV):
         return Path(os.environ[BELT_RECORD_ENV])
-    return Path(__file__).resolve().parent / "reference" / "RandomSlowSpeed1.txt"
+    return SHIPPED_BELT_RECORD
 
 
 def belt_input(
@@ -392,6 +472,8 @@ __all__ = [
     "DEFAULT_NUM_POINTS",
     "STRUCTURES",
     "GaitSimulationSettings",
+    "MeasuredLimit",
+    "SLOW_WALK_LIMIT",
     "belt_input",
     "default_belt_record",
 ]
