@@ -21,6 +21,12 @@ evaluated at the trial's own noisy states and the true schedule:
     python benchmarks/gait_design_bound.py --trial DIR --start 3 --duration 20 \
         [--lab-trial LAB] [--piece-nodes 50] [--out FILE]
 
+The bounds are taken at the states of the trial given: give the noise-free twin (``colloc
+gait simulate`` with the same seed and motor noise and ``--noise 0``) for the exact states.
+At a noisy trial's states the noisy rates read as excitation of the feedback and the plates'
+Jacobian is taken where the noisy feet are: on 27 s of a 1.05 m/s walk every bound came out
+2-3.4 times narrower than at the twin's (K states known 19.8 against 66.3 %).
+
 Prints and appends to ``benchmarks/results/gait_design_bound.json``: both relative bounds of
 ``K`` and ``T*`` (``sqrt(sum var) / |truth|``), their ratio, the pieces, the wall time of the
 whole-design bound and the peak memory.
