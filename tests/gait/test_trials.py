@@ -817,43 +817,15 @@ def test_gait_simulate_refuses_what_it_cannot_walk_before_any_work(
     assert calls == [] and not (tmp_path / "o").exists()
 
 
-def test_the_slowest_walks_that_trip_on_the_record_are_refused_before_any_work(
-    monkeypatch, capsys, tmp_path
-):
-    """0.8 m/s with motor noise for 480 s on the record: 7 of 20 walks fell (measured,
-    docs/gait.md); refused before any work, with what was measured and what walks."""
-    from colloc.cli import main
-    from colloc.gait.settings import (
-        SHIPPED_BELT_RECORD,
-        SLOW_WALK_LIMIT,
-        GaitSimulationSettings,
-    )
+def test_the_slowest_walks_start_from_the_finer_cycle():
+    """Below 0.85 m/s the 60-node cycle's walker tripped (7 of 20 walks of 480 s at 0.8 m/s
+    with 3-5 N m fell) and the 100-node one's walked the same seeds: it is tried first."""
+    from colloc.gait.settings import AUTO_NUM_NODES, SLOW_CYCLE_SPEED, GaitSimulationSettings
 
-    calls: list = []
-    fake_pipeline(monkeypatch, calls)
-    argv = ["gait", "simulate", "--out", str(tmp_path / "o"), "--speed", "0.8"]
-    assert main([*argv, "--duration", "480", "--motor-noise", "3"]) == 2
-    err = capsys.readouterr().err
-    assert "speed 0.8 m/s with motor noise 3 N m for 480 s" in err
-    assert "7 of 20 walks of 480 s fell" in err and "docs/gait.md" in err
-    assert calls == [] and not (tmp_path / "o").exists()
-    # each condition alone lifts it: what was measured to walk, or was not measured to fall
-    # (below 3 N m: 0 N m walks, 1-2 N m were not measured)
-    slow = dict(speed=0.8, duration=480.0, motor_noise=5.0, out=tmp_path / "o")
-    assert SLOW_WALK_LIMIT.refusal(GaitSimulationSettings(**slow)) is not None
-    for change in (
-        {"speed": 0.85},
-        {"duration": 240.0},
-        {"motor_noise": 2.9},
-        {"perturbation_scale": 0.5},
-        {"perturbed": False},
-    ):
-        settings = GaitSimulationSettings(**(slow | change))
-        assert settings.problems() == [], change
-    # another belt record was not measured: not refused
-    record = tmp_path / "belt.txt"
-    record.write_text(SHIPPED_BELT_RECORD.read_text())
-    assert GaitSimulationSettings(**slow, belt_record=record).problems() == []
+    assert GaitSimulationSettings(speed=0.8).nodes_to_try() == (100, 160)
+    assert GaitSimulationSettings(speed=SLOW_CYCLE_SPEED).nodes_to_try() == AUTO_NUM_NODES
+    assert GaitSimulationSettings(speed=1.2).nodes_to_try() == (60, 100, 160)
+    assert GaitSimulationSettings(speed=0.8, num_nodes=60).nodes_to_try() == (60,)
 
 
 def test_joint_isolated_structure_needs_joint_feedback():

@@ -47,6 +47,13 @@ MAX_NUM_NODES = 400
 #: 1.3, 1.35 and 1.4 m/s; the 100-node cycle settled and walked at 1.05-1.3 m/s in 29-49 s.
 #: 60 first keeps the trials made before this default unchanged.
 AUTO_NUM_NODES: tuple[int, ...] = (60, 100, 160)
+#: Below this speed [m/s] the node counts tried start at the second of :data:`AUTO_NUM_NODES`:
+#: at 0.8 m/s (a 1.5 s stride, 25 ms per interval of the 60-node cycle) the walker designed on
+#: the 60-node cycle tripped and fell in 7 of 20 walks of 480 s with 3-5 N m of motor noise
+#: (the swing toe catching the belt where the record slows it to 60-69 % of the speed); on the
+#: 100-node cycle all seven that fell walked 480 s, with the same seeds and noise
+#: (docs/gait.md). At 0.85 m/s and faster the 60-node walker walked every seed measured.
+SLOW_CYCLE_SPEED = 0.85
 #: Schedule points: each is one periodic LQR design; 100 000 was still designing after 45 s.
 MAX_NUM_POINTS = 200
 #: Motor noise [N m]: real walking has 2-5; 1e9 broke the simulation.
@@ -71,80 +78,6 @@ STRUCTURES: tuple[str, ...] = ("full", "joint-isolated")
 
 
 @dataclass(frozen=True)
-class MeasuredLimit:
-    """Settings under which synthetic walks were measured to fall for some seeds: refused
-    before the work, with what was measured (every condition must hold).
-
-    Attributes
-    ----------
-    below_speed : float
-        Walking speeds under this [m/s].
-    scale_above : float
-        Perturbation scales above this, on the shipped belt record.
-    noise_from : float
-        Motor noise at least this [N m].
-    longer_than : float
-        Durations above this [s] (the walks measured lasted this long).
-    measured : str
-        What was measured, said in the refusal.
-    """
-
-    below_speed: float
-    scale_above: float
-    noise_from: float
-    longer_than: float
-    measured: str
-
-    def refusal(self, settings: GaitSimulationSettings) -> str | None:
-        """The reason ``settings`` is refused, or None when the limit does not apply.
-
-        Parameters
-        ----------
-        settings : GaitSimulationSettings
-
-        Returns
-        -------
-        str or None
-        """
-        applies = (
-            settings.perturbed is True
-            and settings.belt_path.resolve() == SHIPPED_BELT_RECORD
-            and settings.speed < self.below_speed
-            and settings.perturbation_scale > self.scale_above
-            and settings.motor_noise >= self.noise_from
-            and settings.duration > self.longer_than
-        )
-        if not applies:
-            return None
-        return (
-            f"speed {settings.speed:g} m/s with motor noise {settings.motor_noise:g} N m for "
-            f"{settings.duration:g} s on the perturbation record at scale "
-            f"{settings.perturbation_scale:g}: {self.measured} (docs/gait.md). Walk at "
-            f"{self.below_speed:g} m/s or faster, {self.longer_than:g} s or less, with less "
-            f"than {self.noise_from:g} N m of motor noise, or with --perturbation-scale "
-            f"{self.scale_above:g} or less"
-        )
-
-
-#: The slowest walks on the perturbation record at scale 1 trip where the belt slows to
-#: 60-69 % of the walking speed: at 0.8 m/s, 480 s (2026-11-28, 4450ce0), 1 of 8 seeds fell
-#: with 3 N m of motor noise, 1 of 4 with 4 N m and 5 of 8 with 5 N m, every fall after
-#: 290 s (the first trip at 242 s); all 20 walked 240 s; without motor noise it walks (below
-#: 3 N m it was not measured). At 0.85 and 0.9 m/s with 5 N m none of four seeds fell.
-SLOW_WALK_LIMIT = MeasuredLimit(
-    below_speed=0.85,
-    scale_above=0.5,
-    noise_from=3.0,
-    longer_than=240.0,
-    measured=(
-        "at 0.8 m/s with 3-5 N m of motor noise 7 of 20 walks of 480 s fell, the swing toe "
-        "catching the belt where it slows to 60-69 % of the walking speed (all after 290 s; "
-        "every one walked 240 s)"
-    ),
-)
-
-
-@dataclass(frozen=True)
 class GaitSimulationSettings:
     """Everything that determines a synthetic walking trial.
 
@@ -164,7 +97,7 @@ class GaitSimulationSettings:
         :data:`colloc.gait.workflow.SETTLE_POINTS`.
     num_nodes : int or None
         Collocation nodes of the walking cycle, >= :data:`colloc.gait.cycle.MIN_NUM_NODES`;
-        None (the default): each of :data:`AUTO_NUM_NODES` in turn until the cycle settles
+        None (the default): each of :meth:`nodes_to_try` in turn until the cycle settles
         (the summary's ``cycle_nodes`` says which). A given number is used alone.
     noise : float or mapping
         Sensor noise: a multiple of :data:`colloc.gait.trials.DEFAULT_NOISE_STD` (0 for none)
@@ -321,10 +254,6 @@ class GaitSimulationSettings:
                 f"{str(self.belt_path)!r}; pass its path (or set ${BELT_RECORD_ENV}), or walk "
                 "on a constant-speed belt (perturbed=False)"
             )
-        if not out:  # the limits measured, on settings that are otherwise usable
-            refusal = SLOW_WALK_LIMIT.refusal(self)
-            if refusal is not None:
-                out.append(refusal)
         return out
 
     def estimated_needs(self) -> dict[str, float]:
@@ -390,6 +319,13 @@ class GaitSimulationSettings:
     def belt_path(self) -> Path:
         """:attr:`belt_record`, or :func:`default_belt_record` when it is None."""
         return default_belt_record() if self.belt_record is None else Path(self.belt_record)
+
+    def nodes_to_try(self) -> tuple[int, ...]:
+        """The walking cycle's node counts tried in turn: :attr:`num_nodes` alone when given,
+        else :data:`AUTO_NUM_NODES` (from its second below :data:`SLOW_CYCLE_SPEED`)."""
+        if self.num_nodes is not None:
+            return (self.num_nodes,)
+        return AUTO_NUM_NODES[1:] if self.speed < SLOW_CYCLE_SPEED else AUTO_NUM_NODES
 
     def validate(self) -> None:
         """Raise ``ValueError`` listing every problem (before any work starts)."""
@@ -472,8 +408,6 @@ __all__ = [
     "DEFAULT_NUM_POINTS",
     "STRUCTURES",
     "GaitSimulationSettings",
-    "MeasuredLimit",
-    "SLOW_WALK_LIMIT",
     "belt_input",
     "default_belt_record",
 ]

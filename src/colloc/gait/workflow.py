@@ -58,7 +58,6 @@ from colloc.gait.outputs import (
     write_json,
 )
 from colloc.gait.settings import (
-    AUTO_NUM_NODES,
     GaitSimulationSettings,
     belt_input,
 )
@@ -226,9 +225,9 @@ def _settled_cycle(
     notes: list[str],
 ) -> WalkingCycle:
     """The walking cycle at ``settings.speed`` settled by a full-state controller, from the
-    coarsest of the node counts to try that settles (:data:`AUTO_NUM_NODES` unless
-    ``settings.num_nodes`` names one)."""
-    tries = AUTO_NUM_NODES if settings.num_nodes is None else (settings.num_nodes,)
+    coarsest of the node counts to try that settles
+    (:meth:`GaitSimulationSettings.nodes_to_try`)."""
+    tries = settings.nodes_to_try()
     failures: list[str] = []
     schedule_fell = False
     last: Exception | None = None
