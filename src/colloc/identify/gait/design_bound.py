@@ -211,7 +211,6 @@ class ClosedLoopInformation:
         known = {gait.belt_speed: window.belt_speed, gs.phase: window.phase}
         key = (N, round(float(np.mean(np.diff(window.times))), 9))
         problem = self._built.get(key)
-        objective = self._objective(window)
         if problem is None:
             closed = dyn.model.with_outputs(self.outputs).with_disturbances(self.motor)
             problem = Problem(
@@ -220,14 +219,14 @@ class ClosedLoopInformation:
                 scheme=Midpoint() if self.scheme is None else self.scheme,
                 known_trajectories=known,
                 known_parameters=self.constants,
-                objective=objective,
+                objective=self._objective(window),
                 process_noise=dict.fromkeys(self.motor.values(), self.motor_noise),
             )
             self._built[key] = problem
         elif window.observed is None:
             problem.replace_data(known_trajectories=known)
         else:
-            problem.replace_data(objective=objective, known_trajectories=known)
+            problem.replace_data(objective=self._objective(window), known_trajectories=known)
         return problem
 
     def _objective(self, window: WindowDesign) -> Any:
@@ -515,7 +514,7 @@ def lab_signals(
     facts : sequence of mapping
         Each window's marker smoother facts (:func:`colloc.identify.gait.markers.marker_smoother`'s
         second value): every marker's place in its segment (the windows' least-squares places
-        are averaged), the segment lengths, noise levels and plate samples per node.
+        are averaged), the gait2d constants it set, noise levels and plate samples per node.
     times : sequence of ndarray
         Each window's node times.
 
@@ -545,8 +544,6 @@ def lab_signals(
     for name in names:
         a, b = np.mean([f["markers"][name]["in_segment_m"] for f in facts], axis=0)
         local[name] = (float(a), float(b))
-    constant = {"thigh": "l_thigh", "shank": "l_shank", "ankle_height": "h_ankle"}
-    lengths = first.get("segment_lengths_m", {})
     noise = first["noise"]
     samples = float(np.median([f.get("plate_samples_per_node", 0.0) for f in facts]))
     shrink = 1.0 / np.sqrt(max(samples, 1.0))
@@ -554,7 +551,7 @@ def lab_signals(
     signals = LabSignals(
         tuple((name, str(first["markers"][name]["segment"])) for name in names),
         tuple((name, local[name]) for name in names),
-        tuple((constant[k], float(v)) for k, v in lengths.items() if k in constant),
+        tuple((name, float(v)) for name, v in first.get("constants", {}).items()),
         float(noise["marker_m"]),
         (float(noise["force_n"]) * shrink, float(noise["moment_nm"]) * shrink) if plates else None,
     )

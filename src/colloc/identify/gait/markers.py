@@ -459,6 +459,8 @@ def marker_smoother(
             "source": levels.source,
         },
         "segment_lengths_m": lengths,
+        # the same, by the gait2d constant each sets (what a bound of this design needs)
+        "constants": {str(symbol): float(value) for symbol, value in constants.items()},
         "plate_samples_per_node": samples,
     }
     return smoother, facts
