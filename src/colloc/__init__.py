@@ -23,6 +23,7 @@ _EXPORTS = {
     "StateSpace": "colloc.model.state_space",
     "IntegralCost": "colloc.nlp",
     "KnownTrajectory": "colloc.nlp",
+    "ParameterPrior": "colloc.nlp",
     "Problem": "colloc.nlp",
     "Solution": "colloc.nlp",
     "TerminalCost": "colloc.nlp",
@@ -58,6 +59,7 @@ if TYPE_CHECKING:  # for type checkers; re-exported through __all__
     from colloc.nlp import (
         IntegralCost,
         KnownTrajectory,
+        ParameterPrior,
         Problem,
         Solution,
         TerminalCost,

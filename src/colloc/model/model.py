@@ -517,14 +517,22 @@ class Model:
             unknown_inputs=self.unknown_inputs + tuple(disturbances.values()),
         )
 
-    def with_outputs(self, outputs: Mapping[sm.Basic, sm.Expr] | Sequence[sm.Basic]) -> Model:
+    def with_outputs(
+        self,
+        outputs: Mapping[sm.Basic, sm.Expr] | Sequence[sm.Basic],
+        parameters: Sequence[sm.Symbol] = (),
+    ) -> Model:
         """Return a copy with other measured outputs (validated like the constructors).
 
         Parameters
         ----------
         outputs : mapping or sequence
-            Output symbol -> expression ``g(x, r, t)`` in the states and inputs, or a
-            sequence of states or inputs measured directly.
+            Output symbol -> expression ``g(x, r, p, t)`` in the states, inputs and
+            parameters, or a sequence of states or inputs measured directly.
+        parameters : sequence of sympy.Symbol
+            Constants that only the outputs hold, added to :attr:`parameters` (e.g. where a
+            marker sits on its segment, estimated with the motion). Each must appear in an
+            output and not already be a parameter or a function of time.
 
         Returns
         -------
@@ -534,11 +542,30 @@ class Model:
         ------
         ModelError
             Naming every output that depends on something other than the states, the inputs
-            and ``t``, holds a derivative or is not an expression.
+            and ``t``, holds a derivative or is not an expression, and every added parameter
+            that is not a new plain symbol held by an output.
         """
         out = dict(outputs) if isinstance(outputs, Mapping) else {y: y for y in as_tuple(outputs)}
-        raise_if_any(output_problems(out, self.states, self.t, self.inputs))
-        return replace(self, outputs=out)
+        problems = output_problems(out, self.states, self.t, self.inputs)
+        added = as_tuple(parameters)
+        held: set[sm.Basic] = set()
+        for g in out.values():
+            if isinstance(g, sm.Basic):
+                held |= g.free_symbols
+        for p in added:
+            if not isinstance(p, sm.Symbol) or p == self.t:
+                problems.append(f"parameters: expected plain SymPy symbols, found {p!r}")
+            elif p in self.parameters:
+                problems.append(f"parameters: {name_of(p)} is already a parameter of the model")
+            elif p not in held:
+                problems.append(f"parameters: {name_of(p)} appears in no output")
+        if len(set(added)) != len(added):
+            problems.append("parameters: a symbol is given twice")
+        raise_if_any(problems)
+        if not added:
+            return replace(self, outputs=out)
+        merged = tuple(sorted((*self.parameters, *added), key=name_of))
+        return replace(self, outputs=out, parameters=merged)
 
     def describe(self) -> dict[str, Any]:
         """A plain summary (names only) for logs and result records."""

@@ -2,7 +2,7 @@
 
 from colloc.nlp.known import KnownTrajectory
 from colloc.nlp.layout import Layout
-from colloc.nlp.objective import IntegralCost, TerminalCost, Tracking
+from colloc.nlp.objective import IntegralCost, ParameterPrior, TerminalCost, Tracking
 from colloc.nlp.problem import Problem
 from colloc.nlp.solution import Solution
 from colloc.nlp.trials import Trials, TrialsSolution
@@ -11,6 +11,7 @@ __all__ = [
     "IntegralCost",
     "KnownTrajectory",
     "Layout",
+    "ParameterPrior",
     "Problem",
     "Solution",
     "TerminalCost",

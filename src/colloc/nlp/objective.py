@@ -9,7 +9,7 @@ from __future__ import annotations
 
 from abc import ABC, abstractmethod
 from collections.abc import Mapping
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 import sympy as sm
@@ -41,6 +41,9 @@ class NodeTerm:
         For a tracking term of ``m`` signals: their names. Its first ``m`` data columns are
         then the measurements (``residual_j = y_j - data_j``) and the next ``m`` the weights,
         which :func:`colloc.nlp.residuals.tracking_residuals` relies on.
+    kind : str
+        What a least-squares term's signals are (:func:`colloc.nlp.residuals.tracking_residuals`):
+        ``"tracking"`` (default) or ``"parameter prior"``.
     """
 
     expr: sm.Expr
@@ -49,6 +52,7 @@ class NodeTerm:
     factors: np.ndarray
     least_squares: tuple[tuple[sm.Expr, sm.Basic], ...] = ()
     signals: tuple[str, ...] = ()
+    kind: str = "tracking"
 
 
 class ObjectiveTerm(ABC):
@@ -310,6 +314,98 @@ class TerminalCost(ObjectiveTerm):
     def fingerprint(self) -> str:
         """See :meth:`ObjectiveTerm.fingerprint`."""
         return f"TerminalCost({sm.srepr(self.expr)})"
+
+
+class ParameterPrior(ObjectiveTerm):
+    """A Gaussian prior on unknown parameters: ``sum_j (p_j - m_j)^2 / s_j^2``, counted once.
+
+    With tracking weights ``1 / sigma^2`` the objective is then twice the negative log
+    posterior, and the estimate the maximum a posteriori one. Use it for parameters the data
+    may leave undetermined along some direction (a marker's place in its segment trades with
+    the segment's pose where no neighbouring joint ties it): the prior settles such a
+    direction where it was started, and :func:`colloc.cramer_rao_bound` then shows, per
+    parameter, how much narrower than the prior the data make it. The term's signals are named
+    ``"prior <parameter>"``; :func:`colloc.nlp.residuals.tracking_residuals` gives them the
+    kind ``"parameter prior"``.
+
+    Parameters
+    ----------
+    means : mapping
+        Unknown parameter symbol -> the prior's mean ``m_j``.
+    std : float or mapping
+        One standard deviation ``s_j`` for all, or symbol -> its own (> 0, finite).
+
+    Raises
+    ------
+    ValueError
+        When ``means`` is empty, a mean is not a finite number, or a standard deviation is
+        not a positive finite number or names a parameter without a mean.
+    """
+
+    def __init__(self, means: Mapping[sm.Symbol, float], std: float | Mapping[sm.Symbol, float]):
+        if not isinstance(means, Mapping) or not means:
+            raise ValueError(
+                f"means: expected a non-empty mapping parameter -> value, found {means!r}"
+            )
+        bad = [f"{name_of(p)}: {v!r}" for p, v in means.items() if not _finite_number(v)]
+        if isinstance(std, Mapping):
+            unknown = [name_of(p) for p in std if p not in means]
+            if unknown:
+                raise ValueError(f"std: parameters {unknown} have no prior mean")
+            spread = {p: std.get(p) for p in means}
+        else:
+            spread = dict.fromkeys(means, std)
+        bad_std = [
+            f"{name_of(p)}: {v!r}"
+            for p, v in spread.items()
+            if not (_finite_number(v) and v > 0)  # type: ignore[operator]
+        ]
+        if bad or bad_std:
+            raise ValueError(
+                "ParameterPrior: expected finite means and positive finite standard deviations, "
+                f"found {'; '.join(bad + bad_std)}"
+            )
+        self.means = {p: float(v) for p, v in means.items()}
+        self.std = {p: float(v) for p, v in spread.items()}  # type: ignore[arg-type]
+
+    def node_term(self, model: Model, times: np.ndarray, index: int) -> NodeTerm:
+        """See :meth:`ObjectiveTerm.node_term`: the prior's pseudo-measurements at the first
+        node, weight zero at the others."""
+        unknown = [name_of(p) for p in self.means if p not in model.parameters]
+        if unknown:
+            raise ValueError(
+                f"ParameterPrior: {unknown} are not parameters of the model "
+                f"({[name_of(p) for p in model.parameters]})"
+            )
+        symbols = list(self.means)
+        count = times.size
+        measured = np.zeros((count, len(symbols)))
+        measured[0] = [self.means[p] for p in symbols]
+        weights = np.zeros((count, len(symbols)))
+        weights[0] = [1.0 / self.std[p] ** 2 for p in symbols]
+        factors = np.zeros(count)
+        factors[0] = 1.0
+        term = least_squares_term(
+            index,
+            symbols,
+            measured,
+            weights,
+            tuple(f"prior {name_of(p)}" for p in symbols),
+            factors,
+        )
+        return replace(term, kind="parameter prior")
+
+    def fingerprint(self) -> str:
+        """See :meth:`ObjectiveTerm.fingerprint`."""
+        return "ParameterPrior(" + ",".join(sm.srepr(p) for p in self.means) + ")"
+
+
+def _finite_number(value: object) -> bool:
+    return (
+        isinstance(value, int | float | np.floating | np.integer)
+        and not isinstance(value, bool)
+        and bool(np.isfinite(value))
+    )
 
 
 class DisturbancePrior(ObjectiveTerm):

@@ -156,7 +156,7 @@ def tracking_residuals(
         A free vector, e.g. ``solution.z``.
     kind : str, optional
         Only the signals of this kind (``"tracking"``, ``"measured input"``, ``"process
-        noise"``); the others are not evaluated.
+        noise"``, ``"parameter prior"``); the others are not evaluated.
 
     Returns
     -------
@@ -171,7 +171,7 @@ def tracking_residuals(
         raise ValueError(f"z: expected shape ({problem.nlp.n},), found {z.shape}")
     local = placement.gather(z)
     terms = problem.node_terms
-    kinds = ["tracking"] * len(terms)
+    kinds = [term.kind for term in terms]
     own = (["measured input"] if problem.measured_inputs else []) + (
         ["process noise"] if problem.process_noise else []
     )
