@@ -107,13 +107,14 @@ def draw(folder: Path, trial: Trial, out: Path) -> Path:
     return save_figure(fig, out, "opensim-walk", formats=("png",))[0]
 
 
-def smoothed(trial: Trial) -> pd.DataFrame:
-    """The trial through the marker smoother (``colloc gait smooth``), as its table."""
+def smoothed(trial: Trial, fit_places: bool = False) -> pd.DataFrame:
+    """The trial through the marker smoother (``colloc gait smooth``, with ``--fit-places``
+    the markers' places estimated with the motion), as its table."""
     from colloc.identify.gait.smooth import smooth_trial, smoothed_table
 
     with tempfile.TemporaryDirectory() as folder:
         trial.write(Path(folder) / "trial")
-        run = smooth_trial(Path(folder) / "trial")
+        run = smooth_trial(Path(folder) / "trial", fit_places=fit_places)
     if not run.success:
         print("note: a window's last stage did not converge:", *run.notes, sep="\n  ")
     return smoothed_table(run)
@@ -161,6 +162,11 @@ def main() -> int:
     parser.add_argument("folder", nargs="?", type=Path, default=DEFAULT_FOLDER)
     parser.add_argument("out", nargs="?", type=Path, default=None)
     parser.add_argument("--smooth", action="store_true", help="also through gait smooth")
+    parser.add_argument(
+        "--fit-places",
+        action="store_true",
+        help="with --smooth: the markers' places estimated with the motion (gait smooth --fit-places)",
+    )
     args = parser.parse_args()
     if not (args.folder / WALK).is_file():
         print(
@@ -179,7 +185,7 @@ def main() -> int:
     out = args.out or Path(tempfile.mkdtemp())
     print(f"figure: {draw(args.folder, trial, out)}")
     if args.smooth:
-        table = smoothed(trial)
+        table = smoothed(trial, args.fit_places)
         print(
             f"\nthe smoother's, against OpenSim's\n{'joint':<12} {'angle r':>8} {'moment RMS':>11}"
         )

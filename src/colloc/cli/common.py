@@ -137,6 +137,14 @@ def add_smoothing_options(parser: argparse.ArgumentParser, prefix: str = "") -> 
         "[N m] (each plate sample) and torque_prior [N m] (the torques' prior about the "
         "inverse dynamics, default 20)",
     )
+    parser.add_argument(
+        "--fit-places",
+        action="store_true",
+        help=prefix + "estimate each marker's place in its segment with the motion (two "
+        "parameters per marker under a 10 mm prior about the static trial's or the walk's "
+        "least-squares place; the JSON gives each estimate and the share of it the record "
+        "determines) instead of keeping those places",
+    )
 
 
 def path_arg(text: str) -> Path:

@@ -344,6 +344,7 @@ def gait_identify_checks(
         truth=args.truth,
         smooth_from=args.smooth_from,
         noise_levels=args.noise_levels,
+        fit_places=args.fit_places,
         design_bound=args.design_bound,
     )
     outputs = output_problems(args.json, None if args.no_plots else args.out)

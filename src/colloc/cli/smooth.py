@@ -94,6 +94,7 @@ def run(args: argparse.Namespace) -> int:
             window_strides=args.window_strides,
             smooth_from=args.smooth_from,
             noise_levels=args.noise_levels,
+            fit_places=args.fit_places,
             progress=step_printer(start),
         )
     except (ValueError, FileNotFoundError) as error:

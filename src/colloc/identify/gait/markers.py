@@ -55,6 +55,7 @@ from colloc.identify.gait.smoother import GaitSmoother
 from colloc.identify.gait.smoother_settings import SmootherSettings
 from colloc.identify.gait.trial_noise import trial_noise_std
 from colloc.lab.ankle import ankle_height
+from colloc.model.symbols import name_of
 
 #: Marker noise [m] used when the record shows none (a noise-free synthetic export).
 DEFAULT_MARKER_STD = 1e-3
@@ -84,6 +85,11 @@ EARLY_PLATE_WEIGHT = 0.01
 #: Standard deviation [N m] of the joint torques' prior about the inverse dynamics, per
 #: sample (see the module's description).
 TORQUE_PRIOR_STD = 20.0
+
+#: Standard deviation [m] of the prior about each marker coordinate's starting place in its
+#: segment when the places are estimated with the motion (``fit_places``): wide against the
+#: millimetres the record determines them to, narrow enough to hold a direction it does not.
+PLACE_PRIOR_STD = 0.01
 
 
 @dataclass(frozen=True)
@@ -322,6 +328,7 @@ def marker_smoother(
     settings: SmootherSettings | None = None,
     use_plates: bool = True,
     noise: Mapping[str, float] | None = None,
+    fit_places: bool = False,
 ) -> tuple[GaitSmoother, dict[str, Any]]:
     """The smoother of the samples ``rows`` of a lab trial that tracks its raw markers and
     plates (see the module's description).
@@ -341,6 +348,12 @@ def marker_smoother(
     noise : mapping, optional
         ``marker`` [m], ``force`` [N], ``moment`` [N m] replacing the trial's estimates,
         ``torque_prior`` [N m] replacing :data:`TORQUE_PRIOR_STD`.
+    fit_places : bool
+        Estimate each marker's place in its segment with the motion (two parameters per
+        marker, ``place_<name>_a`` and ``_b``), started from the static trial's or the walk's
+        least-squares place and held by a Gaussian prior of :data:`PLACE_PRIOR_STD` about
+        it; :func:`fitted_places` then reads the estimates and how far the record alone
+        determines each. False (default): the places stay where they start.
 
     Returns
     -------
@@ -415,7 +428,9 @@ def marker_smoother(
         for name in markers
     }
     tracked: dict[sm.Basic, tuple[sm.Expr, np.ndarray, float]] = {}
-    for (name, k), (y, expression) in marker_outputs(gait, segments, local, markers).items():
+    symbols = place_symbols(markers) if fit_places else {}
+    placed = {name: symbols.get(name, local[name]) for name in markers}
+    for (name, k), (y, expression) in marker_outputs(gait, segments, placed, markers).items():
         tracked[y] = (expression, markers[name][:, k], levels.marker)
     inverse_dynamics = signals[list(TORQUE_COLUMNS)].to_numpy(dtype=float)
     for k, torque in enumerate(gait.torques):
@@ -440,6 +455,16 @@ def marker_smoother(
         constants=constants,
         early_weights=dict.fromkeys(plate_signals, EARLY_PLATE_WEIGHT),
         node_mean_inputs=True,
+        output_parameters={
+            symbol: (float(local[name][k]), PLACE_PRIOR_STD)
+            for name, pair in symbols.items()
+            for k, symbol in enumerate(pair)
+        },
+        parameter_update=(
+            PlaceUpdate(gait, p, markers, segments, local, symbols, levels.marker)
+            if fit_places
+            else None
+        ),
     )
     facts = {
         "tracked": "markers and plates" if samples else "markers",
@@ -462,8 +487,125 @@ def marker_smoother(
         # the same, by the gait2d constant each sets (what a bound of this design needs)
         "constants": {str(symbol): float(value) for symbol, value in constants.items()},
         "plate_samples_per_node": samples,
+        "places_fitted": bool(fit_places),
     }
     return smoother, facts
+
+
+def place_symbols(names: Any) -> dict[str, tuple[sm.Symbol, sm.Symbol]]:
+    """Each marker's place in its segment as two parameters, ``place_<name>_a`` (along the
+    segment's ``x`` axis) and ``place_<name>_b`` (its ``y`` axis) [m].
+
+    Parameters
+    ----------
+    names : iterable of str
+
+    Returns
+    -------
+    dict
+        Marker name -> ``(a, b)`` symbols.
+    """
+    return {name: sm.symbols(f"place_{name}_a place_{name}_b") for name in names}
+
+
+class PlaceUpdate:
+    """The markers' places given the smoothed motion: per marker coordinate, the weighted
+    least squares of its samples seen, ``R(angle)^T (marker - origin)``, with the prior of
+    :data:`PLACE_PRIOR_STD` about its start (exact, the marker being linear in its place).
+
+    Parameters
+    ----------
+    gait : Gait2D
+    constants : ndarray
+        The smoother's :meth:`Gait2D.constant_array` (its segment lengths).
+    markers : mapping
+        Marker name -> its samples at the nodes ``(N, 2)``, NaN where not seen.
+    segments : mapping
+        Marker name -> its segment.
+    start : mapping
+        Marker name -> the prior's mean ``(a, b)`` [m].
+    symbols : mapping
+        Marker name -> its place's symbols (:func:`place_symbols`).
+    marker_std : float
+        Each coordinate's noise [m].
+    """
+
+    def __init__(
+        self,
+        gait: Any,
+        constants: np.ndarray,
+        markers: Mapping[str, np.ndarray],
+        segments: Mapping[str, str],
+        start: Mapping[str, Any],
+        symbols: Mapping[str, tuple[sm.Symbol, sm.Symbol]],
+        marker_std: float,
+    ) -> None:
+        self.gait, self.constants = gait, np.asarray(constants, dtype=float)
+        self.markers, self.segments = dict(markers), dict(segments)
+        self.start = {name: np.asarray(start[name], dtype=float) for name in symbols}
+        self.symbols = dict(symbols)
+        self.seen = {
+            name: float(np.all(np.isfinite(xy), axis=1).sum()) for name, xy in self.markers.items()
+        }
+        self.marker_std = float(marker_std)
+
+    def __call__(self, states: np.ndarray) -> dict[sm.Symbol, float]:
+        """The places given the node states ``(N, 18)``, by symbol."""
+        from colloc.models.gait2d_markers import local_positions
+
+        means = local_positions(
+            self.gait, self.constants, np.asarray(states)[:, :9], self.markers, self.segments
+        )
+        out: dict[sm.Symbol, float] = {}
+        prior = 1.0 / PLACE_PRIOR_STD**2
+        for name, pair in self.symbols.items():
+            data = self.seen[name] / self.marker_std**2
+            place = (data * np.asarray(means[name]) + prior * self.start[name]) / (data + prior)
+            out.update(zip(pair, (float(v) for v in place), strict=True))
+        return out
+
+
+def fitted_places(facts: Mapping[str, Any], result: Any) -> dict[str, Any]:
+    """The marker smoother's facts with the places it estimated (``fit_places=True``): each
+    marker's ``in_segment_m`` the estimate, ``start_m`` where it began, and
+    ``record_share`` per coordinate, ``1 - (sd / prior_sd)^2``: the share of the place's
+    information that the record (markers, plates, dynamics) gives rather than the prior.
+    Near 1 the record determines the place; near 0 only the prior holds it, as for a rigid
+    motion of all of one segment's markers that trades with that segment's pose where no
+    joint further down the chain tells them apart.
+
+    Parameters
+    ----------
+    facts : mapping
+        :func:`marker_smoother`'s.
+    result : SmoothedGait
+        Its smoother's result (:attr:`SmoothedGait.parameters` and ``parameter_sd``).
+
+    Returns
+    -------
+    dict
+        ``facts`` updated (unchanged when the places were not fitted); ``place_sd_m`` per
+        marker gives the posterior standard deviations (the Cramer-Rao bound of the
+        smoother's design at the estimate), or ``place_sd_note`` says there are none.
+    """
+    if not facts.get("places_fitted"):
+        return dict(facts)
+    markers = {name: dict(entry) for name, entry in facts["markers"].items()}
+    out: dict[str, Any] = {**facts, "markers": markers}
+    estimates, spread = result.parameters, result.parameter_sd
+    for name, entry in markers.items():
+        names = [name_of(v) for v in place_symbols([name])[name]]
+        entry["start_m"] = entry["in_segment_m"]
+        entry["in_segment_m"] = [float(estimates[n]) for n in names]
+        entry["from"] = "estimated with the motion, started from " + str(entry["from"])
+        if spread:
+            entry["place_sd_m"] = [spread[n] for n in names]
+            entry["record_share"] = [
+                float(max(0.0, 1.0 - (spread[n] / PLACE_PRIOR_STD) ** 2)) for n in names
+            ]
+    if not spread:
+        out["place_sd_note"] = "no standard deviations: see the window's notes"
+    return out
 
 
 def tracking_fit(problem: Any, z: np.ndarray) -> dict[str, float]:

@@ -116,6 +116,9 @@ class GaitIdentifySettings:
         Smoothing from markers: noise levels replacing the trial's estimates, as
         ``(name, value)`` pairs with names from :data:`NOISE_LEVEL_NAMES` (``marker`` [m],
         ``force`` [N], ``moment`` [N m], ``torque_prior`` [N m]); empty: the trial's.
+    fit_places : bool
+        Smoothing from markers: estimate each marker's place in its segment with the motion
+        (:func:`colloc.identify.gait.markers.marker_smoother`), each window its own.
     design_bound : str
         One of :data:`DESIGN_BOUNDS`: ``full`` also computes the whole design's bound, the
         states unknown (method ``smoother`` on a trial's angles, trunk and torques).
@@ -156,6 +159,7 @@ class GaitIdentifySettings:
     truth: Path | None = None
     smooth_from: str = "auto"
     noise_levels: tuple[tuple[str, float], ...] = ()
+    fit_places: bool = False
     design_bound: str = "states-known"
 
     def problems(self, *, require_trial: bool = True) -> list[str]:
@@ -255,6 +259,14 @@ class GaitIdentifySettings:
             out.append(
                 f"noise_levels: expected (name, value > 0) pairs with names from "
                 f"{list(NOISE_LEVEL_NAMES)}, found {levels!r}"
+            )
+        if not isinstance(self.fit_places, bool):
+            out.append(f"fit_places: expected True or False, found {self.fit_places!r}")
+        elif self.fit_places and (self.method != "smoother" or self.smooth_from == "angles"):
+            out.append(
+                "fit_places: estimates the markers' places in the smoother that tracks them "
+                f"(method 'smoother', smooth_from 'auto' or 'markers'), found method "
+                f"{self.method!r}, smooth_from {self.smooth_from!r}"
             )
         noise = self.process_noise
         if noise is not None and self.method != "closed-loop":

@@ -79,6 +79,7 @@ def smooth_trial(
     window_strides: int | None = None,
     smooth_from: str = "auto",
     noise_levels: tuple[tuple[str, float], ...] = (),
+    fit_places: bool = False,
     progress: Progress | None = None,
     map_windows: WindowMap | None = None,
 ) -> SmoothedTrial:
@@ -100,6 +101,11 @@ def smooth_trial(
     noise_levels : tuple of (str, float)
         Smoothing from markers: noise levels replacing the trial's estimates
         (:class:`colloc.identify.gait.markers.MarkerNoise`).
+    fit_places : bool
+        Smoothing from markers: estimate each marker's place in its segment with the motion
+        (each window its own; the JSON's ``windows`` give the estimates and how far the
+        record determines each), instead of keeping the static trial's or the walk's
+        least-squares places.
     progress : callable, optional
         ``progress(step, detail)``.
     map_windows : callable, optional
@@ -134,6 +140,8 @@ def smooth_trial(
         problems.append(
             f"smooth_from: expected one of {list(SMOOTH_SOURCES)}, found {smooth_from!r}"
         )
+    if not isinstance(fit_places, bool):
+        problems.append(f"fit_places: expected True or False, found {fit_places!r}")
     if problems:
         raise ValueError("smooth_trial: " + "; ".join(problems))
     trial = read_trial(path)
@@ -172,8 +180,17 @@ def smooth_trial(
         f"subject: {subject(trial.metadata)[0]:g} kg, {subject(trial.metadata)[1]:g} m",
         f"tracked: the {SOURCES[source].words}",
     ]
+    if fit_places:
+        notes.append("markers' places in their segments: estimated with the motion")
     jobs = window_jobs(
-        trial, rows, windows, trial.metadata, "stride window", source, tuple(noise_levels)
+        trial,
+        rows,
+        windows,
+        trial.metadata,
+        "stride window",
+        source,
+        tuple(noise_levels),
+        fit_places,
     )
     begin = time.perf_counter()
     say = progress or (lambda step, detail: None)

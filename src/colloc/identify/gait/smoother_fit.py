@@ -49,7 +49,14 @@ def smoother_fit(c: FitContext) -> Fit:
     windows = fit_windows(settings, data.window.time, data.trial.right_heel_strikes)
     source = smoothing_source(settings.smooth_from, data.trial)
     jobs = window_jobs(
-        data.fit, data.rows, windows, meta, "stride window", source, settings.noise_levels
+        data.fit,
+        data.rows,
+        windows,
+        meta,
+        "stride window",
+        source,
+        settings.noise_levels,
+        settings.fit_places,
     )
     where = "" if c.map_windows is None else " on the workers"
     c.say(

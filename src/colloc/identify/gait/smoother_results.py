@@ -97,6 +97,12 @@ class SmoothedGait:
         The node torques and residual forces are determined only in pairs of neighbouring
         nodes (the marker smoother under the trapezoidal rule): they alternate node to node,
         and :meth:`node_mean_inputs` gives them without that mode.
+    parameters : dict
+        The output parameters estimated with the motion (name -> value), e.g. the markers'
+        places in their segments; empty when none were.
+    parameter_sd : dict
+        Their posterior standard deviations (name -> value); empty when none were estimated
+        or the bound could not be computed (the notes say why).
     """
 
     times: np.ndarray
@@ -113,6 +119,8 @@ class SmoothedGait:
     process: str = ""
     tracking: dict[str, Any] = field(default_factory=dict)
     inputs_in_pairs: bool = False
+    parameters: dict[str, float] = field(default_factory=dict)
+    parameter_sd: dict[str, float] = field(default_factory=dict)
 
     def __getstate__(self) -> dict[str, Any]:
         state = dict(self.__dict__)

@@ -42,6 +42,11 @@ IPOPT_OPTIONS: dict[str, Any] = {"nlp_scaling_method": "none"}
 DIVERGED_OBJECTIVE_FACTOR = 10.0
 #: The iteration budget of the last stage at full weights, in continuation steps' budgets.
 FULL_WEIGHTS_STEPS = 2
+#: Output parameters estimated with the motion (``GaitSmoother(output_parameters=...)``):
+#: the most passes of their update and the last stage's solve, and the change [their unit:
+#: metres for markers' places] below which they are taken as settled.
+PARAMETER_PASSES = 6
+PARAMETER_TOL = 1e-4
 #: The same guard for the second-order scheme's stage, warm-started from backward Euler's
 #: nodes: its defects start large (30-90 on 4 s of a marker smoother, whose objective at
 #: backward Euler's solution is the markers' noise alone), and its objective rose more than

@@ -153,7 +153,14 @@ def _smoothed_held_out(
     windows = fit_windows(settings, part.time, part.right_heel_strikes)
     source = smoothing_source(settings.smooth_from, data.trial)
     jobs = window_jobs(
-        part, rows, windows, data.trial.metadata, "held-out window", source, settings.noise_levels
+        part,
+        rows,
+        windows,
+        data.trial.metadata,
+        "held-out window",
+        source,
+        settings.noise_levels,
+        settings.fit_places,
     )
     results = smooth_windows(jobs, prefixed(say, "validate"), map_windows)
     pieces = [result.at_dynamics() for result in results]

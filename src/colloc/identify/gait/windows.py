@@ -73,6 +73,9 @@ class WindowJob:
     noise : tuple of (str, float)
         A source that tracks markers: noise levels replacing the trial's estimates (``marker``,
         ``force``, ``moment``, ``torque_prior``; :class:`colloc.identify.gait.markers.MarkerNoise`).
+    fit_places : bool
+        A source that tracks markers: estimate each marker's place in its segment with the
+        motion (:func:`colloc.identify.gait.markers.marker_smoother`'s ``fit_places``).
     """
 
     trial: Any
@@ -83,6 +86,7 @@ class WindowJob:
     settings: SmootherSettings | None = None
     source: str = "angles"
     noise: tuple[tuple[str, float], ...] = ()
+    fit_places: bool = False
 
 
 def _angle_smoother(dynamics: Any, job: WindowJob) -> tuple[GaitSmoother, dict[str, Any]]:
@@ -96,7 +100,13 @@ def _marker_smoother(
     from colloc.identify.gait.markers import marker_smoother
 
     return marker_smoother(
-        dynamics, job.trial, job.rows, job.settings, noise=dict(job.noise), use_plates=use_plates
+        dynamics,
+        job.trial,
+        job.rows,
+        job.settings,
+        noise=dict(job.noise),
+        use_plates=use_plates,
+        fit_places=job.fit_places,
     )
 
 
@@ -188,9 +198,9 @@ def smooth_window(job: WindowJob, progress: Progress | None = None) -> SmoothedG
 
     result = smoother.run(progress=report)
     if SOURCES[job.source].lab_markers:
-        from colloc.identify.gait.markers import tracking_fit
+        from colloc.identify.gait.markers import fitted_places, tracking_fit
 
-        facts = {**facts, "fit": tracking_fit(result.problem, result.z)}
+        facts = {**fitted_places(facts, result), "fit": tracking_fit(result.problem, result.z)}
     result.tracking = facts
     return result
 
@@ -255,10 +265,24 @@ def window_jobs(
     name: str,
     source: str = "angles",
     noise: tuple[tuple[str, float], ...] = (),
+    fit_places: bool = False,
 ) -> list[Any]:
     """One smoothing job per window of ``part``'s samples ``rows`` (each its own samples
     alone: what travels to a worker), each smoothing from ``source`` (:data:`SOURCES`)
-    with the noise levels ``noise`` (sources that track markers)."""
+    with the noise levels ``noise`` and, with ``fit_places``, the markers' places estimated
+    with the motion (sources that track markers).
+
+    Raises
+    ------
+    ValueError
+        When ``fit_places`` is asked of a source that tracks no markers.
+    """
+    if fit_places and not SOURCES[source].lab_markers:
+        raise ValueError(
+            f"fit_places: the markers' places are estimated by a smoother that tracks them; "
+            f"this one tracks the {SOURCES[source].words} (smooth from 'markers' on a lab "
+            "trial)"
+        )
     body = subject(meta)
     return [
         WindowJob(
@@ -268,6 +292,7 @@ def window_jobs(
             *body,
             source=source,
             noise=tuple(noise),
+            fit_places=bool(fit_places),
         )
         for k, (first, stop) in enumerate(windows)
     ]
