@@ -19,7 +19,8 @@ evaluated at the trial's own noisy states and the true schedule:
 ::
 
     python benchmarks/gait_design_bound.py --trial DIR --start 3 --duration 20 \
-        [--lab-trial LAB] [--piece-nodes 50] [--out FILE]
+        [--lab-trial LAB] [--piece-nodes 50] [--states-known-only] [--noise-of NOISY] \
+        [--out FILE]
 
 The bounds are taken at the states of the trial given: give the noise-free twin (``colloc
 gait simulate`` with the same seed and motor noise and ``--noise 0``) for the exact states.
@@ -68,6 +69,17 @@ def main() -> None:
     parser.add_argument("--duration", type=float, required=True, help="s of record")
     parser.add_argument("--piece-nodes", type=int, default=PIECE_NODES)
     parser.add_argument("--lab-trial", type=Path, help="the same walk's trial-from-lab trial")
+    parser.add_argument(
+        "--states-known-only",
+        action="store_true",
+        help="only the states-known bound (the regression's, seconds at any length)",
+    )
+    parser.add_argument(
+        "--noise-of",
+        type=Path,
+        help="take the torque equation's noise from this trial's metadata (the noisy trial "
+        "whose noise-free twin --trial is: the noise an identification of it assumes)",
+    )
     parser.add_argument("--out", type=Path, default=RESULTS)
     args = parser.parse_args()
 
@@ -95,6 +107,31 @@ def main() -> None:
     torques = signals[list(TORQUE_COLUMNS)].to_numpy(dtype=float)
     phase = law.at(t, signals)
 
+    noise_meta = read_trial(args.noise_of).metadata if args.noise_of is not None else meta
+    strides = np.searchsorted(trial.right_heel_strikes, t)
+    known = fit_schedule_with_errors(
+        gs,
+        phase,
+        states[:, feedback],
+        torques,
+        strides,
+        np.full(len(TORQUE_COLUMNS), torque_equation_noise(noise_meta)),
+    )
+    record = {
+        "trial": str(args.trial),
+        "noise_of": str(args.noise_of) if args.noise_of is not None else None,
+        "start": args.start,
+        "duration": args.duration,
+        "samples": int(t.size),
+        "motor_noise": motor,
+        "torque_equation_noise": torque_equation_noise(noise_meta),
+        "K_relative_bound_states_known": relative_spread(known.K_bound, K),
+        "Tstar_relative_bound_states_known": relative_spread(known.Tstar_bound, Tstar),
+    }
+    if args.states_known_only:
+        append_record(args.out, record)
+        return
+
     start = time.perf_counter()
     noise = {c: trial_noise_std(meta, c) for c in tracked_columns(DEFAULT_TRACK)}
     window = WindowDesign(t, states, torques, signals["belt_speed"].to_numpy(float), phase)
@@ -112,26 +149,9 @@ def main() -> None:
     )
     Tb_full, Kb_full, count = full_design_bound(gs, [job])
     seconds = time.perf_counter() - start
-
-    strides = np.searchsorted(trial.right_heel_strikes, t)
-    known = fit_schedule_with_errors(
-        gs,
-        phase,
-        states[:, feedback],
-        torques,
-        strides,
-        np.full(len(TORQUE_COLUMNS), torque_equation_noise(meta)),
-    )
-    record = {
-        "trial": str(args.trial),
-        "start": args.start,
-        "duration": args.duration,
-        "samples": int(t.size),
+    record |= {
         "pieces": count,
         "piece_nodes": args.piece_nodes,
-        "motor_noise": motor,
-        "K_relative_bound_states_known": relative_spread(known.K_bound, K),
-        "Tstar_relative_bound_states_known": relative_spread(known.Tstar_bound, Tstar),
         "K_relative_bound_full_design": relative_spread(Kb_full, K),
         "Tstar_relative_bound_full_design": relative_spread(Tb_full, Tstar),
         "full_design_seconds": seconds,
