@@ -603,8 +603,8 @@ class GaitSmoother:
         iterations), and the parameters' posterior standard deviations there (its
         Cramer-Rao bound). When it does not converge within a continuation step's budget the
         passes' point is kept, with a note (on OpenSim's real walk 120 iterations did not
-        converge from it). Returns the problem the result
-        is read from, its solution, the estimates and their standard deviations, by name."""
+        converge from it). Returns the problem the result is read from, its solution, the
+        estimates and their standard deviations, by name."""
         from colloc.nlp.uncertainty import cramer_rao_bound
 
         joint = self.problem(
