@@ -970,6 +970,63 @@ def test_a_settling_design_that_breaks_down_refines_the_cycle(monkeypatch, tmp_p
     assert not (tmp_path / "o2" / "summary.json").exists()
 
 
+def test_a_cycle_the_solver_does_not_find_is_one_failed_try(monkeypatch, tmp_path):
+    """At 1.17 m/s the 60-node stride fell while settling and the 100-node cycle's solve
+    stopped at its iteration limit: that RuntimeError ended the command before the 160-node
+    cycle was tried. It is now one node count that failed, named in the trial's notes; with
+    ``--nodes N`` alone, or when every count fails, the command's error still says why."""
+    import colloc.gait.workflow as workflow
+    from colloc.gait.settings import GaitSimulationSettings
+    from colloc.gait.settle import CycleNotSettledError
+
+    calls: list = []
+    fake_pipeline(monkeypatch, calls)
+    by_nodes = _cycles_by_nodes(calls)
+
+    def not_found_at_100(speed, **kwargs):
+        if kwargs["num_nodes"] == 100:
+            calls.append(("cycle", speed, kwargs))
+            raise RuntimeError("walking cycle: IPOPT stopped with Maximum_Iterations_Exceeded")
+        return by_nodes(speed, **kwargs)
+
+    def falls_when_coarse(cycle, *args, **kwargs):
+        if cycle.stats["nodes"] < 100:
+            raise CycleNotSettledError("settle_cycle: fell at t = 0.33 s")
+        return cycle
+
+    monkeypatch.setattr(workflow, "settle_cycle", falls_when_coarse)
+    monkeypatch.setattr(workflow, "find_walking_cycle", not_found_at_100)
+    settings = GaitSimulationSettings(
+        duration=3.0, out=tmp_path / "out", perturbed=False, animation_seconds=0.5
+    )
+    result = workflow.simulate_trial(settings)
+    assert [c[2]["num_nodes"] for c in calls if c[0] == "cycle"] == [60, 100, 160]
+    assert result.trial.metadata["cycle_nodes"] == 160
+    assert any(
+        n.startswith("the walking cycle was refined to 160 nodes: 60 nodes: settle_cycle: fell")
+        and "100 nodes: the walking cycle: walking cycle: IPOPT stopped with Maximum" in n
+        for n in result.summary["notes"]
+    ), result.summary["notes"]
+
+    # one node count asked for: its solver's error is the command's, as before
+    calls.clear()
+    with pytest.raises(RuntimeError, match="Maximum_Iterations_Exceeded"):
+        workflow.simulate_trial(
+            GaitSimulationSettings(duration=3.0, out=tmp_path / "o2", num_nodes=100)
+        )
+    assert not (tmp_path / "o2" / "summary.json").exists()
+
+    # every count failing: the error names each
+    monkeypatch.setattr(
+        workflow,
+        "find_walking_cycle",
+        lambda speed, **k: (_ for _ in ()).throw(RuntimeError("no cycle")),
+    )
+    with pytest.raises(RuntimeError, match="60 nodes: .*100 nodes: .*160 nodes: "):
+        workflow.simulate_trial(GaitSimulationSettings(duration=3.0, out=tmp_path / "o3"))
+    assert not (tmp_path / "o3" / "summary.json").exists()
+
+
 def test_foot_ground_reactions_sum_each_foot_and_weigh_its_centre_of_pressure():
     from colloc.gait.strikes import foot_ground_reactions
 
