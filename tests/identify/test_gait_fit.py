@@ -380,3 +380,20 @@ def test_workers_need_stride_windows(capsys):
     code = main(["gait", "identify", str(FIXTURE), "--workers", "2", "--no-store", "--no-plots"])
     assert code == 2
     assert "--workers/--scheduler: expected --window-strides N" in capsys.readouterr().err
+
+
+def test_workers_that_lose_a_window_end_the_command_with_its_cause(monkeypatch, tmp_path, capsys):
+    """A worker that dies mid-window: the command names the loss (exit 2), writes nothing."""
+    import colloc.identify.gait.workflow as workflow
+    from colloc.batch.cluster import WorkersLostError
+
+    def lost(*args, **kwargs):
+        raise WorkersLostError("workers: the Dask workers lost a task of smooth_window ...")
+
+    monkeypatch.setattr(workflow, "identify_gait", lost)
+    out = tmp_path / "out"
+    argv = ["gait", "identify", str(FIXTURE), "--window-strides", "2", "--workers", "1"]
+    code = main([*argv, "--no-store", "--no-plots", "--out", str(out)])
+    assert code == 2
+    assert "--workers: the Dask workers lost a task of smooth_window" in capsys.readouterr().err
+    assert not out.exists()

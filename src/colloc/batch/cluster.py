@@ -10,11 +10,12 @@ import logging
 import os
 import warnings
 from collections.abc import Callable, Iterator
+from concurrent.futures import CancelledError
 from contextlib import contextmanager
 from typing import Any
 
 import dask
-from distributed import Client, LocalCluster
+from distributed import Client, KilledWorker, LocalCluster
 
 #: Seconds to reach a scheduler before its address is reported as unusable.
 CONNECT_TIMEOUT = 20
@@ -22,6 +23,10 @@ CONNECT_TIMEOUT = 20
 
 class SchedulerError(ConnectionError):
     """A Dask scheduler address that could not be used (named in the message)."""
+
+
+class WorkersLostError(RuntimeError):
+    """The workers lost a task's data or process before it finished (named in the message)."""
 
 
 def default_workers() -> int:
@@ -92,7 +97,8 @@ def client_map(client: Client) -> Callable[[Callable[[Any], Any], list[Any]], li
     -------
     callable
         Scatters the items to the workers, submits one task per item (``pure=False``: every
-        item runs) and gathers them; a task's exception is raised here.
+        item runs) and gathers them; a task's exception is raised here, and a task the
+        workers lost (a worker that died or was removed) as :class:`WorkersLostError`.
     """
 
     def run(function: Callable[[Any], Any], items: list[Any]) -> list[Any]:
@@ -101,6 +107,18 @@ def client_map(client: Client) -> Callable[[Callable[[Any], Any], list[Any]], li
         futures = client.map(function, client.scatter(items), pure=False)
         try:
             return list(client.gather(futures))
+        except (CancelledError, KilledWorker) as error:
+            # a worker that died, or stopped answering long enough to be removed (measured:
+            # a run suspended for 22 minutes lost its scattered windows), takes its tasks'
+            # data with it; distributed reports a cancelled future, not the cause
+            client.cancel(futures)
+            name = getattr(function, "__name__", repr(function))
+            raise WorkersLostError(
+                f"workers: the Dask workers lost a task of {name} before it finished "
+                f"({type(error).__name__}: {error}); a worker died or stopped "
+                "answering (out of memory, killed or suspended). Nothing was written: run "
+                "again, with fewer workers if memory ran short"
+            ) from error
         except BaseException:
             client.cancel(futures)
             raise

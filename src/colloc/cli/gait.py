@@ -379,7 +379,12 @@ def _gait_identify(args: argparse.Namespace) -> int:
     start = time.perf_counter()
     progress = step_printer(start)
     if args.workers is not None or args.scheduler is not None:
-        from colloc.batch.cluster import SchedulerError, client_map, dask_client
+        from colloc.batch.cluster import (
+            SchedulerError,
+            WorkersLostError,
+            client_map,
+            dask_client,
+        )
 
         progress("workers", f"Dask: {args.scheduler or f'{args.workers} local workers'}")
         from colloc.numeric.memory import peak_rss_mb
@@ -392,6 +397,9 @@ def _gait_identify(args: argparse.Namespace) -> int:
                 # each worker's peak with its forked solvers': what the windows cost in memory
                 worker_peaks = [float(v) for v in client.run(peak_rss_mb).values()]
         except SchedulerError as error:
+            report_problems("colloc gait identify", [f"--{error}"])
+            return 2
+        except WorkersLostError as error:
             report_problems("colloc gait identify", [f"--{error}"])
             return 2
     else:
