@@ -396,10 +396,7 @@ def _gait_identify(args: argparse.Namespace) -> int:
                 )
                 # each worker's peak with its forked solvers': what the windows cost in memory
                 worker_peaks = [float(v) for v in client.run(peak_rss_mb).values()]
-        except SchedulerError as error:
-            report_problems("colloc gait identify", [f"--{error}"])
-            return 2
-        except WorkersLostError as error:
+        except (SchedulerError, WorkersLostError) as error:
             report_problems("colloc gait identify", [f"--{error}"])
             return 2
     else:
